@@ -1,0 +1,1 @@
+"""Per-link contact centre, wrench and contact region from taxel arrays (paper Sec. IV-A)."""

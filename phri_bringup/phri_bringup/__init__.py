@@ -1,0 +1,1 @@
+"""Launch files, parameters, recording, plots and the phri command."""

@@ -1,0 +1,128 @@
+"""Declarative parameter specifications (pure, no rclpy).
+
+Each node describes its parameters once as :class:`ParamSpec` objects: name, default, unit, range
+and description. The same list declares the ROS parameters with descriptors
+(:mod:`phri_common.ros_params`), validates every value set at start-up or at run time, and renders
+the parameter tables in ``docs/interfaces.md`` (a test checks the docs agree with the code).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+ParamValue = bool | int | float | str | list[bool] | list[int] | list[float] | list[str]
+
+
+class ParameterValueError(ValueError):
+    """A parameter value is outside what its specification allows."""
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    """One node parameter.
+
+    Attributes:
+        name: ROS parameter name.
+        default: default value; its Python type fixes the ROS type (``list[float]`` = double array).
+        description: what it does.
+        unit: physical unit (``"-"`` if none).
+        low, high: inclusive bounds for numbers and for every element of numeric arrays
+            (``None`` = unbounded). NaN is always refused for doubles; ±inf only where a bound
+            allows it (``high=math.inf``).
+        length: required array length (``None`` = any).
+        min_length: minimum array length.
+        read_only: refused after start-up (topic and patch wiring).
+    """
+
+    name: str
+    default: ParamValue
+    description: str
+    unit: str = "-"
+    low: float | None = None
+    high: float | None = None
+    length: int | None = None
+    min_length: int = 0
+    read_only: bool = False
+
+    @property
+    def is_array(self) -> bool:
+        return isinstance(self.default, list)
+
+    def range_text(self) -> str:
+        """Human-readable allowed range, as used in error messages and docs."""
+        parts = []
+        if self.low is not None or self.high is not None:
+            lo = "-inf" if self.low is None else f"{self.low:g}"
+            hi = "inf" if self.high is None else f"{self.high:g}"
+            parts.append(f"[{lo}, {hi}]")
+        if self.length is not None:
+            parts.append(f"{self.length} elements")
+        elif self.min_length:
+            parts.append(f"≥ {self.min_length} elements")
+        return ", ".join(parts) if parts else "any"
+
+    def check(self, value: Any) -> ParamValue:
+        """Return ``value`` (normalised) if allowed, else raise :class:`ParameterValueError`.
+
+        The message names the parameter and its allowed range.
+        """
+        if self.is_array:
+            if not isinstance(value, (list, tuple)) and not hasattr(value, "tolist"):
+                raise self._error(value, "expected an array")
+            items = list(value.tolist() if hasattr(value, "tolist") else value)
+            if self.length is not None and len(items) != self.length:
+                raise self._error(value, f"expected {self.length} elements, got {len(items)}")
+            if len(items) < self.min_length:
+                raise self._error(value, f"expected at least {self.min_length} elements")
+            for item in items:
+                self._check_scalar(item, value)
+            return items
+        return self._check_scalar(value, value)
+
+    def _check_scalar(self, item: Any, whole: Any) -> Any:
+        if isinstance(item, (bool, str)):
+            return item
+        if isinstance(item, (int, float)):
+            x = float(item)
+            if math.isnan(x):
+                raise self._error(whole, "NaN is not allowed")
+            if self.low is not None and x < self.low:
+                raise self._error(whole, "below the allowed range")
+            if self.high is not None and x > self.high:
+                raise self._error(whole, "above the allowed range")
+            if math.isinf(x) and (self.high is None or not math.isinf(self.high)) and x > 0:
+                raise self._error(whole, "infinity is not allowed")
+            if math.isinf(x) and x < 0 and (self.low is None or not math.isinf(self.low)):
+                raise self._error(whole, "-infinity is not allowed")
+            return item
+        raise self._error(whole, f"unsupported type {type(item).__name__}")
+
+    def _error(self, value: Any, why: str) -> ParameterValueError:
+        unit = "" if self.unit == "-" else f" [{self.unit}]"
+        return ParameterValueError(
+            f"parameter '{self.name}'{unit} refused value {value!r}: {why}; "
+            f"allowed range: {self.range_text()}"
+        )
+
+
+def markdown_table(specs: Sequence[ParamSpec]) -> str:
+    """Render specs as a Markdown table (name, type, unit, default, range, description)."""
+    rows = [
+        "| parameter | type | unit | default | range | description |",
+        "|---|---|---|---|---|---|",
+    ]
+    for spec in specs:
+        kind = type(spec.default).__name__
+        if spec.is_array:
+            assert isinstance(spec.default, list)
+            elem = type(spec.default[0]).__name__ if spec.default else "str"
+            kind = f"{elem}[]"
+        ro = " (read-only)" if spec.read_only else ""
+        rows.append(
+            f"| `{spec.name}` | {kind} | {spec.unit} | `{spec.default!r}` | {spec.range_text()} "
+            f"| {spec.description}{ro} |"
+        )
+    return "\n".join(rows)

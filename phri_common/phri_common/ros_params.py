@@ -1,0 +1,117 @@
+"""Declare and validate ROS parameters from :class:`~phri_common.params.ParamSpec` lists.
+
+Node-side helper (imports rclpy). A bad value given at start-up raises
+:class:`~phri_common.params.ParameterValueError` (the node refuses to start with a message naming
+the parameter and its range); a bad value set at run time is refused through the set-parameters
+callback with the same message, and the node keeps its previous value.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from rcl_interfaces.msg import (
+    FloatingPointRange,
+    IntegerRange,
+    ParameterDescriptor,
+    SetParametersResult,
+)
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+from phri_common.params import ParameterValueError, ParamSpec, ParamValue
+
+
+def _descriptor(spec: ParamSpec) -> ParameterDescriptor:
+    unit = "" if spec.unit == "-" else f" [{spec.unit}]"
+    desc = ParameterDescriptor(
+        description=f"{spec.description}{unit}",
+        additional_constraints=f"allowed range: {spec.range_text()}",
+        read_only=spec.read_only,
+        dynamic_typing=False,
+    )
+    finite_bounds = (
+        spec.low is not None and spec.high is not None and abs(spec.low) < 1e300
+        and abs(spec.high) < 1e300
+    )
+    if not spec.is_array and finite_bounds and not isinstance(spec.default, bool):
+        assert spec.low is not None and spec.high is not None
+        if isinstance(spec.default, float):
+            desc.floating_point_range = [
+                FloatingPointRange(from_value=float(spec.low), to_value=float(spec.high), step=0.0)
+            ]
+        elif isinstance(spec.default, int):
+            desc.integer_range = [
+                IntegerRange(from_value=int(spec.low), to_value=int(spec.high), step=1)
+            ]
+    return desc
+
+
+def _ros_type(spec: ParamSpec) -> Parameter.Type:
+    d = spec.default
+    if isinstance(d, list):
+        sample = d[0] if d else ""
+        return {
+            bool: Parameter.Type.BOOL_ARRAY,
+            int: Parameter.Type.INTEGER_ARRAY,
+            float: Parameter.Type.DOUBLE_ARRAY,
+            str: Parameter.Type.STRING_ARRAY,
+        }[type(sample)]
+    return {
+        bool: Parameter.Type.BOOL,
+        int: Parameter.Type.INTEGER,
+        float: Parameter.Type.DOUBLE,
+        str: Parameter.Type.STRING,
+    }[type(d)]
+
+
+def declare_parameters(
+    node: Node,
+    specs: Sequence[ParamSpec],
+    on_change: Callable[[dict[str, ParamValue]], None] | None = None,
+) -> dict[str, ParamValue]:
+    """Declare every spec on ``node`` and return the validated start-up values by name.
+
+    Args:
+        node: the node.
+        specs: its parameters.
+        on_change: called with the new values (all parameters) after a run-time change passed
+            validation; if it raises ``ValueError`` the change is refused with that message.
+
+    Raises:
+        ParameterValueError: a start-up value (override from YAML or command line) is refused.
+    """
+    by_name = {s.name: s for s in specs}
+    values: dict[str, ParamValue] = {}
+    for spec in specs:
+        if spec.is_array and not spec.default:
+            param: Parameter = node.declare_parameter(spec.name, _ros_type(spec), _descriptor(spec))
+            raw = param.value if param.value is not None else []
+        else:
+            raw = node.declare_parameter(spec.name, spec.default, _descriptor(spec)).value
+        values[spec.name] = spec.check(raw)
+
+    def _validate(params: list[Parameter]) -> SetParametersResult:
+        proposed = dict(values)
+        try:
+            for p in params:
+                spec = by_name.get(p.name)
+                if spec is None:
+                    continue
+                proposed[p.name] = spec.check(p.value)
+            if on_change is not None:
+                on_change(proposed)
+        except (ParameterValueError, ValueError) as err:
+            node.get_logger().warning(str(err))
+            return SetParametersResult(successful=False, reason=str(err))
+        values.update(proposed)
+        return SetParametersResult(successful=True)
+
+    node.add_on_set_parameters_callback(_validate)
+    return values
+
+
+def param_value(values: dict[str, ParamValue], name: str) -> Any:
+    """Typed-loosely accessor (keeps call sites short)."""
+    return values[name]
