@@ -17,6 +17,7 @@ from rcl_interfaces.msg import (
     ParameterDescriptor,
     SetParametersResult,
 )
+from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
@@ -85,11 +86,20 @@ def declare_parameters(
     by_name = {s.name: s for s in specs}
     values: dict[str, ParamValue] = {}
     for spec in specs:
-        if spec.is_array and not spec.default:
-            param: Parameter = node.declare_parameter(spec.name, _ros_type(spec), _descriptor(spec))
-            raw = param.value if param.value is not None else []
-        else:
-            raw = node.declare_parameter(spec.name, spec.default, _descriptor(spec)).value
+        try:
+            if spec.is_array and not spec.default:
+                param: Parameter = node.declare_parameter(
+                    spec.name, _ros_type(spec), _descriptor(spec)
+                )
+                raw = param.value if param.value is not None else []
+            else:
+                raw = node.declare_parameter(spec.name, spec.default, _descriptor(spec)).value
+        except (InvalidParameterValueException, InvalidParameterTypeException) as err:
+            # rclpy's own range/type check fired first: re-raise with our message.
+            override = node._parameter_overrides.get(spec.name)
+            value = override.value if override is not None else None
+            spec.check(value)  # raises ParameterValueError naming the range if out of range
+            raise ParameterValueError(f"parameter '{spec.name}' refused: {err}") from err
         values[spec.name] = spec.check(raw)
 
     def _validate(params: list[Parameter]) -> SetParametersResult:

@@ -7,6 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
+from sensor_msgs.msg import PointCloud2, PointField
+
 from phri_common.contact import ContactMessageError, ContactState, contact_to_msg, msg_to_contact
 from phri_common.taxels import (
     TaxelArray,
@@ -15,7 +17,6 @@ from phri_common.taxels import (
     msg_to_taxels,
     taxels_to_msg,
 )
-from sensor_msgs.msg import PointCloud2, PointField
 
 finite = st.floats(-10.0, 10.0, allow_nan=False, width=32)
 

@@ -1,0 +1,106 @@
+"""Benchmark: contact estimation per call (design §7, issue: 3 links × 2,000 taxels ≤ 60 µs median).
+
+Prints median and p99 for one link of 2,000 / 10,000 / 50,000 taxels, and for the full
+per-control-step work on 3 links: new forces for every patch + one batched estimate of all links
+(``set_forces`` ×3 + ``estimate``), and the per-message path the node runs on each PointCloud2
+(decode + geometry check + forces + estimate). The contact covers a realistic ~10 % of each patch (a
+forearm against a waist); ``--contact-fraction 1`` gives the worst case.
+
+Run: ``.venv/bin/python bench/bench_contact_estimation.py [--repeats 2000]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from contact_estimation.estimator import ContactEstimator, EstimatorConfig
+from phri_common.taxels import TaxelCloudEncoder, msg_to_taxels
+
+
+def cylinder_patch(n: int, radius: float = 0.06) -> tuple[np.ndarray, np.ndarray]:
+    """n taxels on a cylinder along x (7.5 mm pitch), outward normals."""
+    rows = max(1, int(round(2 * np.pi * radius / 0.0075)))
+    cols = int(np.ceil(n / rows))
+    ang = np.repeat(np.arange(rows) * 2 * np.pi / rows, cols)[:n]
+    x = np.tile(np.arange(cols) * 0.0075, rows)[:n]
+    normals = np.stack([np.zeros(n), np.cos(ang), np.sin(ang)], axis=1)
+    positions = np.stack([x, radius * normals[:, 1], radius * normals[:, 2]], axis=1)
+    return positions, normals
+
+
+def pressed_forces(n: int, fraction: float, rng: np.random.Generator) -> np.ndarray:
+    forces = rng.uniform(0.0, 0.02, n)  # noise below σ_t
+    k = max(1, int(fraction * n))
+    start = rng.integers(0, n - k + 1)
+    forces[start : start + k] = rng.uniform(0.1, 1.0, k)
+    return forces
+
+
+def timeit(fn: Callable[[], object], repeats: int) -> tuple[float, float]:
+    for _ in range(min(200, repeats)):
+        fn()
+    samples = np.empty(repeats)
+    for i in range(repeats):
+        t0 = time.perf_counter_ns()
+        fn()
+        samples[i] = time.perf_counter_ns() - t0
+    return float(np.median(samples)) / 1e3, float(np.percentile(samples, 99)) / 1e3
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=2000)
+    parser.add_argument("--contact-fraction", type=float, default=0.1)
+    args = parser.parse_args()
+    rng = np.random.default_rng(0)
+    config = EstimatorConfig()
+    print(f"contact fraction {args.contact_fraction:.0%}, {args.repeats} repeats; times in µs")
+    print(f"{'case':<44}{'median':>10}{'p99':>10}")
+
+    for n in (2_000, 10_000, 50_000):
+        pos, nrm = cylinder_patch(n)
+        est = ContactEstimator({"patch": "link"}, config)
+        est.set_geometry("patch", pos, nrm)
+        forces = pressed_forces(n, args.contact_fraction, rng)
+
+        def one_link(e: ContactEstimator = est, f: np.ndarray = forces) -> None:
+            e.set_forces("patch", f, 0)
+            e.estimate()
+
+        med, p99 = timeit(one_link, args.repeats)
+        print(f"{f'1 link × {n:,} taxels':<44}{med:>10.1f}{p99:>10.1f}")
+
+    for n in (2_000, 10_000):
+        links = ("left_upper_arm_link", "left_forearm_link", "right_forearm_link")
+        est = ContactEstimator({f"p{i}": link for i, link in enumerate(links)}, config)
+        msgs = []
+        frames = []
+        for i, link in enumerate(links):
+            pos, nrm = cylinder_patch(n)
+            forces = pressed_forces(n, args.contact_fraction, rng)
+            msg = TaxelCloudEncoder(pos, nrm, link).encode(forces, 0)
+            msgs.append((f"p{i}", msg))
+            frames.append((f"p{i}", forces))
+            est.set_geometry(f"p{i}", pos, nrm)
+
+        def from_arrays(est: ContactEstimator = est, frames: list = frames) -> None:
+            for patch, forces in frames:
+                est.set_forces(patch, forces, 0)
+            est.estimate()
+
+        def from_messages(est: ContactEstimator = est, msgs: list = msgs) -> None:
+            for patch, msg in msgs:
+                est.update(patch, msg_to_taxels(msg))
+
+        med, p99 = timeit(from_arrays, args.repeats)
+        print(f"{f'3 links × {n:,} taxels (control step)':<44}{med:>10.1f}{p99:>10.1f}")
+        med, p99 = timeit(from_messages, args.repeats)
+        print(f"{f'3 links × {n:,} taxels (per message ×3)':<44}{med:>10.1f}{p99:>10.1f}")
+
+
+if __name__ == "__main__":
+    main()

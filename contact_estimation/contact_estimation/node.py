@@ -1,0 +1,217 @@
+"""ROS 2 node: skin taxel arrays → one contact state per link per frame, plus rviz markers.
+
+Thin wrapper around :class:`contact_estimation.estimator.ContactEstimator`. Interface
+(documented in docs/contact_estimation.md):
+
+* subscribes ``skin/<patch>/taxels`` (sensor_msgs/PointCloud2, see phri_common.taxels) for every
+  patch in ``patches``;
+* publishes ``contacts/<link>`` (sensor_msgs/PointCloud2, see phri_common.contact) once for
+  every accepted frame of one of the link's patches;
+* publishes ``contacts/markers`` (visualization_msgs/MarkerArray) when ``publish_markers``;
+* publishes ``/diagnostics`` (diagnostic_msgs/DiagnosticArray) every ``diagnostics_period``.
+
+A refused frame (malformed message, NaN/Inf, wrong frame_id, wrong size) is counted, reported on
+diagnostics and logged (throttled); no contact state is published for it, the node stays up and
+keeps serving every other patch. Downstream treats the missing state as stale.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from collections.abc import Sequence
+from functools import partial
+from typing import Any
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import PointCloud2
+from visualization_msgs.msg import MarkerArray
+
+from contact_estimation.estimator import (
+    PAPER_TORQUE_LIMIT,
+    ContactEstimator,
+    EstimatorConfig,
+    InvalidTaxelData,
+)
+from contact_estimation.markers import MarkerScales, contact_markers
+from phri_common.contact import contact_to_msg
+from phri_common.params import ParamSpec, ParamValue
+from phri_common.ros_params import declare_parameters
+from phri_common.taxels import TaxelMessageError, msg_to_taxels
+
+DEFAULT_PATCHES = ["left_upper_arm", "left_forearm", "right_forearm"]
+DEFAULT_PATCH_LINKS = ["left_upper_arm_link", "left_forearm_link", "right_forearm_link"]
+
+PARAMS: list[ParamSpec] = [
+    ParamSpec("patches", DEFAULT_PATCHES, "skin patch names; patch P is read from "
+              "skin/P/taxels", read_only=True, min_length=1),
+    ParamSpec("patch_links", DEFAULT_PATCH_LINKS, "link frame of each patch, same order as "
+              "patches; several patches may share a link", read_only=True, min_length=1),
+    ParamSpec("force_threshold", 0.05, "σ_t: a taxel is in contact when its force is strictly "
+              "greater", unit="N", low=0.0, high=1000.0),
+    ParamSpec("torque_limit", list(PAPER_TORQUE_LIMIT), "per-axis bound on |τ| about the "
+              "contact centre in the link frame (paper: τ(2) ≤ 1.2); .inf = none", unit="N·m",
+              low=0.0, high=math.inf, length=3),
+    ParamSpec("publish_markers", True, "publish rviz markers on contacts/markers"),
+    ParamSpec("marker_force_scale", 0.01, "force arrow length per newton", unit="m/N",
+              low=0.0, high=10.0),
+    ParamSpec("marker_torque_scale", 0.1, "torque arrow length per N·m", unit="m/(N·m)",
+              low=0.0, high=10.0),
+    ParamSpec("diagnostics_period", 1.0, "period of the /diagnostics report", unit="s",
+              low=0.05, high=3600.0),
+]
+
+SENSOR_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+
+
+def config_from_values(values: dict[str, ParamValue]) -> EstimatorConfig:
+    """Parameter values → estimator config (raises ValueError naming the parameter)."""
+    limit = values["torque_limit"]
+    assert isinstance(limit, list)
+    return EstimatorConfig(
+        force_threshold=float(values["force_threshold"]),
+        torque_limit=(float(limit[0]), float(limit[1]), float(limit[2])),
+    )
+
+
+def patch_link_map(patches: Sequence[str], links: Sequence[str]) -> dict[str, str]:
+    """Pair ``patches`` with ``patch_links``; ValueError names both parameters on mismatch."""
+    if len(patches) != len(links):
+        raise ValueError(
+            f"parameters 'patches' ({len(patches)} entries) and 'patch_links' ({len(links)} "
+            "entries) must have the same length"
+        )
+    if len(set(patches)) != len(patches):
+        raise ValueError(f"parameter 'patches' has duplicate names: {list(patches)}")
+    bad = [p for p in [*patches, *links] if not p or "/" in p or " " in p]
+    if bad:
+        raise ValueError(f"parameters 'patches'/'patch_links': invalid names {bad}")
+    return dict(zip(patches, links, strict=True))
+
+
+class ContactEstimationNode(Node):
+    """Per-link contact estimation from skin patches (paper Sec. IV-A/B)."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("contact_estimation", **kwargs)
+        self._values = declare_parameters(self, PARAMS, on_change=self._on_change)
+        patches = list(self._values["patches"])
+        links = list(self._values["patch_links"])
+        self._patch_links = patch_link_map(patches, links)
+        self._estimator = ContactEstimator(self._patch_links, config_from_values(self._values))
+        self._scales = self._marker_scales(self._values)
+        self._received = dict.fromkeys(patches, 0)
+        self._refused = dict.fromkeys(patches, 0)
+        self._last_error: dict[str, str] = dict.fromkeys(patches, "")
+        self._state_pubs = {
+            link: self.create_publisher(PointCloud2, f"contacts/{link}", SENSOR_QOS)
+            for link in self._estimator.links
+        }
+        self._marker_pub = self.create_publisher(MarkerArray, "contacts/markers", 10)
+        self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self._subs = [
+            self.create_subscription(
+                PointCloud2, f"skin/{patch}/taxels", partial(self._on_taxels, patch), SENSOR_QOS
+            )
+            for patch in patches
+        ]
+        period = float(self._values["diagnostics_period"])
+        self._diag_timer = self.create_timer(period, self._publish_diagnostics)
+        self.get_logger().info(
+            f"estimating contacts of {len(self._estimator.links)} link(s) from "
+            f"{len(patches)} patch(es): {self._patch_links}"
+        )
+
+    @staticmethod
+    def _marker_scales(values: dict[str, ParamValue]) -> MarkerScales:
+        return MarkerScales(
+            force=float(values["marker_force_scale"]),
+            torque=float(values["marker_torque_scale"]),
+        )
+
+    def _on_change(self, values: dict[str, ParamValue]) -> None:
+        config = config_from_values(values)  # raises ValueError → change refused
+        self._estimator.reconfigure(config)
+        self._scales = self._marker_scales(values)
+        self._values = values
+
+    def _on_taxels(self, patch: str, msg: PointCloud2) -> None:
+        self._received[patch] += 1
+        link = self._patch_links[patch]
+        try:
+            taxels = msg_to_taxels(msg)
+            if taxels.frame_id != link:
+                raise InvalidTaxelData(
+                    f"frame_id {taxels.frame_id!r}, expected the patch's link {link!r}"
+                )
+            state = self._estimator.update(patch, taxels)
+        except (TaxelMessageError, InvalidTaxelData) as err:
+            self._refused[patch] += 1
+            self._last_error[patch] = str(err)
+            self.get_logger().warning(
+                f"refused a frame of patch {patch!r}: {err}", throttle_duration_sec=1.0
+            )
+            return
+        self._state_pubs[link].publish(contact_to_msg(state))
+        if self._values["publish_markers"]:
+            self._marker_pub.publish(MarkerArray(markers=contact_markers(state, self._scales)))
+
+    def _publish_diagnostics(self) -> None:
+        statuses = []
+        for patch, link in self._patch_links.items():
+            refused = self._refused[patch]
+            level = DiagnosticStatus.OK if refused == 0 else DiagnosticStatus.WARN
+            if self._received[patch] == 0:
+                level = DiagnosticStatus.WARN
+            statuses.append(
+                DiagnosticStatus(
+                    level=level,
+                    name=f"contact_estimation: {patch}",
+                    hardware_id=link,
+                    message="no frames yet" if self._received[patch] == 0 else (
+                        "ok" if refused == 0 else f"{refused} frame(s) refused"
+                    ),
+                    values=[
+                        KeyValue(key="frames_received", value=str(self._received[patch])),
+                        KeyValue(key="frames_refused", value=str(refused)),
+                        KeyValue(key="last_error", value=self._last_error[patch]),
+                    ],
+                )
+            )
+        msg = DiagnosticArray(status=statuses)
+        msg.header.stamp = self.get_clock().now().to_msg()
+        self._diag_pub.publish(msg)
+
+    @property
+    def refused_frames(self) -> dict[str, int]:
+        """Refused frames per patch since start-up."""
+        return dict(self._refused)
+
+
+def main(args: list[str] | None = None) -> None:
+    """Entry point ``contact_estimation_node``: run the node until Ctrl-C."""
+    from rclpy.experimental.events_executor import EventsExecutor
+
+    rclpy.init(args=args if args is not None else sys.argv)
+    try:
+        node = ContactEstimationNode()
+    except ValueError as err:
+        print(f"contact_estimation: {err}", file=sys.stderr)
+        rclpy.try_shutdown()
+        sys.exit(2)
+    executor = EventsExecutor()
+    executor.add_node(node)
+    try:
+        executor.spin()
+    except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+
+
+__all__ = ["PARAMS", "ContactEstimationNode", "Parameter", "main"]

@@ -1,0 +1,290 @@
+"""Contact estimation core against hand-computed cases and an independent per-taxel reference."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from contact_estimation.estimator import (
+    ContactEstimator,
+    EstimatorConfig,
+    InvalidTaxelData,
+    UnknownPatchError,
+    estimate_contact,
+)
+from phri_common.taxels import TaxelArray
+
+NO_LIMIT = EstimatorConfig(force_threshold=0.05, torque_limit=(math.inf, math.inf, math.inf))
+
+
+def flat_grid(nx: int = 10, ny: int = 6, pitch: float = 0.0075) -> tuple[np.ndarray, np.ndarray]:
+    """A flat patch in the link's xy-plane at z = 0.05 m, normals +z."""
+    xs, ys = np.meshgrid(np.arange(nx) * pitch, np.arange(ny) * pitch, indexing="ij")
+    positions = np.stack([xs.ravel(), ys.ravel(), np.full(xs.size, 0.05)], axis=1)
+    normals = np.tile([0.0, 0.0, 1.0], (xs.size, 1))
+    return positions, normals
+
+
+def taxels(positions, normals, forces, weights=None, stamp_ns=0) -> TaxelArray:
+    return TaxelArray(
+        np.asarray(positions, float), np.asarray(normals, float), np.asarray(forces, float),
+        None if weights is None else np.asarray(weights, float), "link", stamp_ns,
+    )
+
+
+def test_uniform_patch_has_centre_at_centroid_and_zero_torque() -> None:
+    positions, normals = flat_grid()
+    state = estimate_contact("link", taxels(positions, normals, np.full(60, 0.5)), NO_LIMIT)
+    assert state.in_contact and state.taxel_count == 60
+    np.testing.assert_allclose(state.center, positions.mean(axis=0), atol=1e-12)
+    np.testing.assert_allclose(state.force, [0.0, 0.0, -30.0], atol=1e-9)  # 60 × 0.5 N into skin
+    np.testing.assert_allclose(state.torque, 0.0, atol=1e-12)
+    np.testing.assert_allclose(state.region_min, positions.min(axis=0))
+    np.testing.assert_allclose(state.region_max, positions.max(axis=0))
+
+
+def test_contact_on_both_sides_of_a_link_gives_the_hand_computed_torque() -> None:
+    # A link along x with radius 0.05 m. Taxel A at x = +0.1 on the +y side pressed with 3 N
+    # (force on link −y), taxel B at x = −0.1 on the −y side pressed with 1 N (force +y).
+    # Centre = (0, 0, 0). By hand: τ = r_A × f_A + r_B × f_B
+    #   r_A × f_A = (0.1, 0.05, 0) × (0, −3, 0) = (0, 0, −0.3)
+    #   r_B × f_B = (−0.1, −0.05, 0) × (0, 1, 0) = (0, 0, −0.1)
+    # so τ = (0, 0, −0.4) N·m and f = (0, −2, 0) N.
+    positions = [[0.1, 0.05, 0.0], [-0.1, -0.05, 0.0]]
+    normals = [[0.0, 1.0, 0.0], [0.0, -1.0, 0.0]]
+    state = estimate_contact("link", taxels(positions, normals, [3.0, 1.0]), NO_LIMIT)
+    np.testing.assert_allclose(state.center, [0.0, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(state.force, [0.0, -2.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(state.torque, [0.0, 0.0, -0.4], atol=1e-12)
+    # Swapping the forces flips which side dominates but not the sense of rotation:
+    # (0.1, 0.05, 0) × (0, −1, 0) + (−0.1, −0.05, 0) × (0, 3, 0) = (0, 0, −0.1 − 0.3).
+    swapped = estimate_contact("link", taxels(positions, normals, [1.0, 3.0]), NO_LIMIT)
+    np.testing.assert_allclose(swapped.torque, [0.0, 0.0, -0.4], atol=1e-12)
+    np.testing.assert_allclose(swapped.force, [0.0, 2.0, 0.0], atol=1e-12)
+    # Mirroring the contact along x reverses the torque.
+    mirrored = estimate_contact(
+        "link", taxels([[-0.1, 0.05, 0.0], [0.1, -0.05, 0.0]], normals, [3.0, 1.0]), NO_LIMIT
+    )
+    np.testing.assert_allclose(mirrored.torque, [0.0, 0.0, 0.4], atol=1e-12)
+
+
+def test_single_taxel_is_its_own_centre_with_zero_torque() -> None:
+    positions, normals = flat_grid()
+    forces = np.zeros(60)
+    forces[17] = 2.0
+    state = estimate_contact("link", taxels(positions, normals, forces), NO_LIMIT)
+    assert state.taxel_count == 1
+    np.testing.assert_allclose(state.center, positions[17])
+    np.testing.assert_allclose(state.force, [0.0, 0.0, -2.0])
+    np.testing.assert_allclose(state.torque, 0.0, atol=1e-15)
+    np.testing.assert_array_equal(state.region_min, state.region_max)
+
+
+def test_no_taxel_over_threshold_is_the_explicit_no_contact_state() -> None:
+    positions, normals = flat_grid()
+    state = estimate_contact("link", taxels(positions, normals, np.full(60, 0.01)), NO_LIMIT)
+    assert not state.in_contact and state.taxel_count == 0
+    assert not state.force.any() and not state.center.any() and not state.torque.any()
+
+
+def test_force_exactly_at_threshold_is_not_contact_and_just_above_is() -> None:
+    positions, normals = flat_grid()
+    config = EstimatorConfig(force_threshold=0.2)
+    at = estimate_contact("link", taxels(positions, normals, np.full(60, 0.2)), config)
+    above = estimate_contact("link", taxels(positions, normals, np.full(60, 0.2001)), config)
+    assert not at.in_contact
+    assert above.in_contact and above.taxel_count == 60
+
+
+def test_weights_shift_the_centre_and_scale_the_force() -> None:
+    # Two taxels 0.1 m apart, weights 3 and 1: centre at 1/4 of the way from the heavy one.
+    positions = [[0.0, 0.0, 0.0], [0.1, 0.0, 0.0]]
+    normals = [[0.0, 0.0, 1.0], [0.0, 0.0, 1.0]]
+    state = estimate_contact(
+        "link", taxels(positions, normals, [1.0, 1.0], weights=[3.0, 1.0]), NO_LIMIT
+    )
+    np.testing.assert_allclose(state.center, [0.025, 0.0, 0.0])
+    np.testing.assert_allclose(state.force, [0.0, 0.0, -4.0])  # (9a): Σ ω f
+    # (9b) about the centre: τ_y = Σ (r_z f_x − r_x f_z), r_x = −0.025, 0.075, ω f_z = −3, −1:
+    # τ_y = −(−0.025 · −3) − (0.075 · −1) = −0.075 + 0.075 = 0 — balanced about the centre.
+    np.testing.assert_allclose(state.torque, [0.0, 0.0, 0.0], atol=1e-12)
+    # Weights do not depend on the force: the centre stays put when the forces change.
+    heavier = estimate_contact(
+        "link", taxels(positions, normals, [5.0, 1.0], weights=[3.0, 1.0]), NO_LIMIT
+    )
+    np.testing.assert_allclose(heavier.center, state.center)
+    # Now ω f_z = −15, −1: τ_y = −(−0.025 · −15) − (0.075 · −1) = −0.375 + 0.075 = −0.3 N·m.
+    np.testing.assert_allclose(heavier.torque, [0.0, -0.3, 0.0], atol=1e-12)
+
+
+def test_torque_limit_clamps_only_the_limited_axis() -> None:
+    positions = [[0.1, 0.05, 0.0], [-0.1, -0.05, 0.0]]
+    normals = [[0.0, 1.0, 0.0], [0.0, -1.0, 0.0]]
+    forces = [30.0, 10.0]  # unlimited τ_z = −(0.2 · 40 / 2) = −4 N·m
+    free = estimate_contact("link", taxels(positions, normals, forces), NO_LIMIT)
+    np.testing.assert_allclose(free.torque[2], -4.0)
+    limited = estimate_contact("link", taxels(positions, normals, forces), EstimatorConfig())
+    np.testing.assert_allclose(limited.torque, [0.0, 0.0, -1.2], atol=1e-12)
+    np.testing.assert_allclose(limited.force, free.force)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_non_finite_force_refuses_the_frame(bad: float) -> None:
+    positions, normals = flat_grid()
+    forces = np.ones(60)
+    forces[3] = bad
+    with pytest.raises(InvalidTaxelData, match="1 of 60"):
+        estimate_contact("link", taxels(positions, normals, forces))
+
+
+def test_non_finite_position_refuses_the_frame() -> None:
+    positions, normals = flat_grid()
+    positions[5, 1] = np.nan
+    with pytest.raises(InvalidTaxelData, match="position"):
+        estimate_contact("link", taxels(positions, normals, np.ones(60)))
+
+
+def test_negative_forces_are_never_contact() -> None:
+    positions, normals = flat_grid()
+    forces = -np.ones(60)
+    forces[0] = 1.0
+    state = estimate_contact("link", taxels(positions, normals, forces))
+    assert state.taxel_count == 1
+
+
+def test_mismatched_sizes_are_refused() -> None:
+    with pytest.raises(InvalidTaxelData, match="mismatched"):
+        estimate_contact("l", taxels(np.zeros((4, 3)), np.zeros((4, 3)), np.zeros(5)))
+    with pytest.raises(InvalidTaxelData, match="mismatched"):
+        estimate_contact("l", taxels(np.zeros((4, 3)), np.zeros((4, 3)), np.zeros(4), np.ones(3)))
+    est = ContactEstimator({"p": "l"})
+    est.set_geometry("p", np.zeros((4, 3)), np.zeros((4, 3)))
+    with pytest.raises(InvalidTaxelData, match="4 taxels"):
+        est.set_forces("p", np.zeros(3), 0)
+
+
+def test_unknown_patch_and_refused_frames_leave_other_state_untouched() -> None:
+    positions, normals = flat_grid()
+    est = ContactEstimator({"upper": "link_a", "fore": "link_b"})
+    good = est.update("upper", taxels(positions, normals, np.ones(60), stamp_ns=10))
+    with pytest.raises(UnknownPatchError, match="bogus"):
+        est.update("bogus", taxels(positions, normals, np.ones(60)))
+    bad = np.ones(60)
+    bad[0] = np.nan
+    with pytest.raises(InvalidTaxelData):
+        est.update("upper", taxels(positions, normals, bad, stamp_ns=20))
+    kept = est.link_state("link_a")
+    assert kept.stamp_ns == 10
+    np.testing.assert_allclose(kept.force, good.force)
+    assert not est.link_state("link_b").in_contact
+
+
+def test_invalid_config_is_refused_with_the_parameter_name() -> None:
+    with pytest.raises(ValueError, match="force_threshold"):
+        EstimatorConfig(force_threshold=math.nan)
+    with pytest.raises(ValueError, match="torque_limit"):
+        EstimatorConfig(torque_limit=(1.0, -1.0, 1.0))
+
+
+def reference_estimate(p, n, f, w, threshold):
+    """Per-taxel loop straight from eq. (5), (9a), (9b): independent of the vectorised code."""
+    contacting = [j for j in range(len(f)) if f[j] > threshold]
+    if not contacting:
+        return None
+    wsum = sum(w[j] for j in contacting)
+    centre = sum(w[j] * p[j] for j in contacting) / wsum
+    force = sum(w[j] * (-f[j] * n[j]) for j in contacting)
+    torque = sum(np.cross(p[j] - centre, w[j] * (-f[j] * n[j])) for j in contacting)
+    return centre, force, torque
+
+
+coords = st.floats(-0.5, 0.5, allow_nan=False)
+
+
+@settings(max_examples=60, deadline=None)
+@given(data=st.data(), n=st.integers(1, 40), split=st.integers(0, 40))
+def test_two_patches_on_one_link_equal_the_per_taxel_reference(
+    data: st.DataObject, n: int, split: int
+) -> None:
+    p = data.draw(arrays(np.float64, (n, 3), elements=coords))
+    nrm = data.draw(arrays(np.float64, (n, 3), elements=st.floats(-1, 1)))
+    f = data.draw(arrays(np.float64, (n,), elements=st.floats(-1.0, 5.0)))
+    w = data.draw(arrays(np.float64, (n,), elements=st.floats(0.1, 3.0)))
+    k = min(split, n)
+    est = ContactEstimator({"a": "link", "b": "link"}, NO_LIMIT)
+    est.update("a", taxels(p[:k], nrm[:k], f[:k], w[:k], stamp_ns=1))
+    state = est.update("b", taxels(p[k:], nrm[k:], f[k:], w[k:], stamp_ns=2))
+    ref = reference_estimate(p, nrm, f, w, NO_LIMIT.force_threshold)
+    if ref is None:
+        assert not state.in_contact
+        return
+    centre, force, torque = ref
+    assert state.in_contact and state.stamp_ns == 2
+    np.testing.assert_allclose(state.center, centre, atol=1e-9)
+    np.testing.assert_allclose(state.force, force, atol=1e-9)
+    np.testing.assert_allclose(state.torque, torque, atol=1e-9)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    data=st.data(),
+    shift=arrays(np.float64, (3,), elements=st.floats(-1, 1)),
+    limit=st.floats(0.0, 2.0),
+)
+def test_torque_is_independent_of_the_link_origin_and_respects_the_limit(
+    data: st.DataObject, shift: np.ndarray, limit: float
+) -> None:
+    p = data.draw(arrays(np.float64, (12, 3), elements=coords))
+    nrm = data.draw(arrays(np.float64, (12, 3), elements=st.floats(-1, 1)))
+    f = data.draw(arrays(np.float64, (12,), elements=st.floats(0.0, 5.0)))
+    base = estimate_contact("link", taxels(p, nrm, f), NO_LIMIT)
+    moved = estimate_contact("link", taxels(p + shift, nrm, f), NO_LIMIT)
+    if base.in_contact:
+        np.testing.assert_allclose(moved.center, base.center + shift, atol=1e-9)
+        np.testing.assert_allclose(moved.torque, base.torque, atol=1e-9)
+    limited = estimate_contact(
+        "link", taxels(p, nrm, f), EstimatorConfig(torque_limit=(limit,) * 3)
+    )
+    assert np.all(np.abs(limited.torque) <= limit + 1e-12)
+
+
+def test_zero_weight_contact_is_not_a_contact() -> None:
+    state = estimate_contact(
+        "l", taxels(np.zeros((2, 3)), np.ones((2, 3)), np.ones(2), weights=np.zeros(2))
+    )
+    assert not state.in_contact
+
+
+def test_changed_geometry_is_picked_up() -> None:
+    positions, normals = flat_grid()
+    est = ContactEstimator({"p": "l"})
+    first = est.update("p", taxels(positions, normals, np.ones(60)))
+    second = est.update("p", taxels(positions + np.array([1.0, 0.0, 0.0]), normals, np.ones(60)))
+    np.testing.assert_allclose(second.center, first.center + np.array([1.0, 0.0, 0.0]))
+
+
+def test_batched_estimate_matches_one_link_at_a_time() -> None:
+    rng = np.random.default_rng(3)
+    links = {"a": "l0", "b": "l1", "c": "l0", "d": "l2"}
+    est = ContactEstimator(links)
+    frames = {}
+    for patch in links:
+        n = int(rng.integers(5, 30))
+        forces = np.where(rng.random(n) < 0.4, rng.uniform(0.1, 2.0, n), 0.0)
+        frames[patch] = taxels(rng.normal(size=(n, 3)), rng.normal(size=(n, 3)), forces)
+        est.update(patch, frames[patch])
+    states = est.estimate()
+    for link in ("l0", "l1", "l2"):
+        alone = ContactEstimator({p: link for p, lk in links.items() if lk == link})
+        for p, lk in links.items():
+            if lk == link:
+                alone.update(p, frames[p])
+        expected = alone.link_state(link)
+        assert states[link].taxel_count == expected.taxel_count
+        np.testing.assert_allclose(states[link].torque, expected.torque, atol=1e-12)
+        np.testing.assert_allclose(states[link].region_max, expected.region_max)

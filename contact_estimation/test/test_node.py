@@ -1,0 +1,128 @@
+"""The contact estimation node in an isolated ROS domain: taxels in → contact states out."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import PointCloud2
+from visualization_msgs.msg import MarkerArray
+
+from contact_estimation.node import ContactEstimationNode
+from phri_common.contact import ContactState, msg_to_contact
+from phri_common.params import ParameterValueError
+from phri_common.taxels import TaxelCloudEncoder
+from phri_common.testing import spin_until
+
+pytestmark = pytest.mark.ros
+
+# Two taxels on opposite sides of a link along x (see test_estimator for the hand computation):
+# 3 N at (0.1, 0.05, 0) on the +y side, 1 N at (−0.1, −0.05, 0) on the −y side.
+POSITIONS = np.array([[0.1, 0.05, 0.0], [-0.1, -0.05, 0.0], [0.0, 0.0, 0.05]])
+NORMALS = np.array([[0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0]])
+FORCES = np.array([3.0, 1.0, 0.0])
+
+
+@pytest.fixture
+def harness(ros_context):
+    node = ContactEstimationNode(
+        context=ros_context,
+        parameter_overrides=[
+            Parameter("patches", value=["fore", "upper"]),
+            Parameter("patch_links", value=["forearm_link", "upper_arm_link"]),
+            Parameter("torque_limit", value=[math.inf, math.inf, 1.2]),
+        ],
+    )
+    peer = node.__class__.__mro__[1]("test_peer", context=ros_context)
+    received: dict[str, list[ContactState]] = {"forearm_link": [], "upper_arm_link": []}
+    markers: list[MarkerArray] = []
+    for link, states in received.items():
+        peer.create_subscription(
+            PointCloud2, f"contacts/{link}", lambda m, s=states: s.append(msg_to_contact(m)), 10
+        )
+    peer.create_subscription(MarkerArray, "contacts/markers", markers.append, 10)
+    pubs = {
+        p: peer.create_publisher(PointCloud2, f"skin/{p}/taxels", 10) for p in ("fore", "upper")
+    }
+    executor = SingleThreadedExecutor(context=ros_context)
+    executor.add_node(node)
+    executor.add_node(peer)
+    # Wait for discovery in both directions before publishing.
+    assert spin_until(
+        executor,
+        lambda: all(p.get_subscription_count() > 0 for p in pubs.values())
+        and peer.count_publishers("contacts/forearm_link") > 0,
+        timeout_s=10.0,
+    )
+    yield node, pubs, received, markers, executor
+    executor.shutdown()
+    peer.destroy_node()
+    node.destroy_node()
+
+
+def test_taxels_in_contact_state_out(harness) -> None:
+    _, pubs, received, markers, executor = harness
+    encoder = TaxelCloudEncoder(POSITIONS, NORMALS, "forearm_link")
+    pubs["fore"].publish(encoder.encode(FORCES, 123_000_000))
+    assert spin_until(executor, lambda: len(received["forearm_link"]) >= 1, timeout_s=10.0)
+    state = received["forearm_link"][-1]
+    assert state.in_contact and state.taxel_count == 2 and state.stamp_ns == 123_000_000
+    np.testing.assert_allclose(state.center, [0.0, 0.0, 0.0], atol=1e-7)
+    np.testing.assert_allclose(state.force, [0.0, -2.0, 0.0], atol=1e-6)
+    np.testing.assert_allclose(state.torque, [0.0, 0.0, -0.4], atol=1e-6)
+    np.testing.assert_allclose(state.region_min, [-0.1, -0.05, 0.0], atol=1e-7)
+    np.testing.assert_allclose(state.region_max, [0.1, 0.05, 0.0], atol=1e-7)
+    assert spin_until(executor, lambda: len(markers) >= 1, timeout_s=5.0)
+    assert {m.ns for m in markers[-1].markers} == {"forearm_link"}
+    assert not received["upper_arm_link"]  # nothing published for a link without frames
+
+
+def test_bad_frames_are_refused_and_the_other_patch_keeps_working(harness) -> None:
+    node, pubs, received, _, executor = harness
+    nan_forces = FORCES.copy()
+    nan_forces[0] = np.nan
+    encoder = TaxelCloudEncoder(POSITIONS, NORMALS, "forearm_link")
+    pubs["fore"].publish(encoder.encode(nan_forces, 1))
+    wrong_frame = TaxelCloudEncoder(POSITIONS, NORMALS, "base_link").encode(FORCES, 2)
+    pubs["fore"].publish(wrong_frame)
+    truncated = TaxelCloudEncoder(POSITIONS, NORMALS, "forearm_link").encode(FORCES, 3)
+    truncated.data = bytes(truncated.data)[:-5]
+    pubs["fore"].publish(truncated)
+    assert spin_until(executor, lambda: node.refused_frames["fore"] == 3, timeout_s=10.0)
+    pubs["upper"].publish(
+        TaxelCloudEncoder(POSITIONS, NORMALS, "upper_arm_link").encode(FORCES * 2.0, 4)
+    )
+    assert spin_until(executor, lambda: len(received["upper_arm_link"]) >= 1, timeout_s=10.0)
+    np.testing.assert_allclose(received["upper_arm_link"][-1].force, [0.0, -4.0, 0.0], atol=1e-6)
+    assert not received["forearm_link"]  # refused frames never produced a state
+    assert node.refused_frames["upper"] == 0
+
+
+def test_torque_limit_parameter_applies_at_run_time_and_bad_values_are_refused(harness) -> None:
+    node, pubs, received, _, executor = harness
+    result = node.set_parameters([Parameter("torque_limit", value=[1.0, 1.0, -0.5])])[0]
+    assert not result.successful
+    assert "torque_limit" in result.reason and "[0, inf]" in result.reason
+    assert node.set_parameters([Parameter("torque_limit", value=[1.0, 1.0, 0.25])])[0].successful
+    scalar = node.set_parameters([Parameter("force_threshold", value=math.nan)])[0]
+    assert not scalar.successful and "force_threshold" in scalar.reason
+    assert node.get_parameter("force_threshold").value == 0.05
+    pubs["fore"].publish(TaxelCloudEncoder(POSITIONS, NORMALS, "forearm_link").encode(FORCES, 5))
+    assert spin_until(executor, lambda: len(received["forearm_link"]) >= 1, timeout_s=10.0)
+    np.testing.assert_allclose(received["forearm_link"][-1].torque, [0.0, 0.0, -0.25], atol=1e-6)
+
+
+def test_bad_start_up_parameter_is_refused_with_name_and_range(ros_context) -> None:
+    with pytest.raises(ParameterValueError, match=r"force_threshold.*\[0, 1000\]"):
+        ContactEstimationNode(
+            context=ros_context, parameter_overrides=[Parameter("force_threshold", value=-1.0)]
+        )
+    with pytest.raises(ValueError, match="same length"):
+        ContactEstimationNode(
+            context=ros_context,
+            parameter_overrides=[Parameter("patches", value=["a", "b"]),
+                                 Parameter("patch_links", value=["l"])],
+        )
