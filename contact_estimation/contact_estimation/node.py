@@ -23,10 +23,8 @@ from collections.abc import Sequence
 from functools import partial
 from typing import Any
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
-from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import PointCloud2
 from visualization_msgs.msg import MarkerArray
@@ -40,6 +38,7 @@ from contact_estimation.estimator import (
 from contact_estimation.markers import MarkerScales, contact_markers
 from phri_common.contact import contact_to_msg
 from phri_common.params import ParamSpec, ParamValue
+from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
 from phri_common.taxels import TaxelMessageError, msg_to_taxels
 
@@ -193,25 +192,8 @@ class ContactEstimationNode(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    """Entry point ``contact_estimation_node``: run the node until Ctrl-C."""
-    from rclpy.experimental.events_executor import EventsExecutor
-
-    rclpy.init(args=args if args is not None else sys.argv)
-    try:
-        node = ContactEstimationNode()
-    except ValueError as err:
-        print(f"contact_estimation: {err}", file=sys.stderr)
-        rclpy.try_shutdown()
-        sys.exit(2)
-    executor = EventsExecutor()
-    executor.add_node(node)
-    try:
-        executor.spin()
-    except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
+    """Entry point ``contact_estimation_node``: run the node until Ctrl-C or SIGTERM."""
+    sys.exit(run_nodes(lambda: [ContactEstimationNode()], "contact_estimation", args))
 
 
-__all__ = ["PARAMS", "ContactEstimationNode", "Parameter", "main"]
+__all__ = ["PARAMS", "ContactEstimationNode", "main"]

@@ -1,0 +1,111 @@
+"""Benchmark: the contact estimation node over ROS, 3 patches × N taxels at 500 Hz.
+
+Starts ``contact_estimation_node`` as its own process, publishes three taxel arrays at the skin
+rate from this process (stamped with the publish time) and subscribes to the three contact-state
+topics. Prints the received rate per link, drops, latency from publish to reception of the
+contact state (median / p99) and the node's CPU use.
+
+Run: ``.venv/bin/python bench/bench_contact_estimation_ros.py [--seconds 10] [--taxels 2000]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from sensor_msgs.msg import PointCloud2
+
+from bench.bench_contact_estimation import cylinder_patch, pressed_forces
+from phri_common.stamps import stamp_to_ns
+from phri_common.taxels import TaxelCloudEncoder
+from phri_common.testing import isolate_ros_environment
+
+PATCHES = {"left_upper_arm": "left_upper_arm_link", "left_forearm": "left_forearm_link",
+           "right_forearm": "right_forearm_link"}
+
+
+def cpu_seconds(pid: int) -> float:
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=10.0)
+    parser.add_argument("--taxels", type=int, default=2000)
+    parser.add_argument("--rate", type=float, default=500.0)
+    args = parser.parse_args()
+    isolate_ros_environment()
+    exe = Path(sys.executable).with_name("contact_estimation_node")
+    node_proc = subprocess.Popen(
+        [str(exe), "--ros-args", "-p", "publish_markers:=false", "--log-level", "warn"]
+    )
+    rclpy.init()
+    node = rclpy.create_node("bench_contact_estimation")
+    latencies: dict[str, list[int]] = {link: [] for link in PATCHES.values()}
+
+    def on_state(link: str, msg: PointCloud2) -> None:
+        latencies[link].append(time.time_ns() - stamp_to_ns(msg.header.stamp))
+
+    for link in PATCHES.values():
+        node.create_subscription(
+            PointCloud2, f"contacts/{link}", lambda m, lk=link: on_state(lk, m), 100
+        )
+    rng = np.random.default_rng(0)
+    pubs, encoders = {}, {}
+    for patch, link in PATCHES.items():
+        pubs[patch] = node.create_publisher(PointCloud2, f"skin/{patch}/taxels", 100)
+        encoders[patch] = TaxelCloudEncoder(*cylinder_patch(args.taxels), link)
+    forces = pressed_forces(args.taxels, 0.1, rng)
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    deadline = time.monotonic() + 15.0
+    while any(p.get_subscription_count() == 0 for p in pubs.values()):
+        executor.spin_once(timeout_sec=0.05)
+        if time.monotonic() > deadline:
+            raise SystemExit("contact_estimation_node did not come up within 15 s")
+    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner.start()
+    time.sleep(1.0)
+    for values in latencies.values():
+        values.clear()
+    period = 1.0 / args.rate
+    frames = int(args.seconds * args.rate)
+    cpu0, wall0 = cpu_seconds(node_proc.pid), time.monotonic()
+    next_t = time.monotonic()
+    print(f"publishing {frames} frames × 3 patches × {args.taxels} taxels at {args.rate:g} Hz …")
+    for _ in range(frames):
+        for patch in PATCHES:
+            pubs[patch].publish(encoders[patch].encode(forces, time.time_ns()))
+        next_t += period
+        delay = next_t - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+    time.sleep(0.5)
+    cpu1, wall1 = cpu_seconds(node_proc.pid), time.monotonic()
+    node_proc.terminate()
+    node_proc.wait(timeout=10)
+    executor.shutdown()
+    node.destroy_node()
+    rclpy.try_shutdown()
+
+    print(f"{'link':<22}{'received':>10}{'rate Hz':>10}{'drops':>8}{'lat med ms':>12}"
+          f"{'lat p99 ms':>12}")
+    for link, values in latencies.items():
+        lat = np.array(values) / 1e6
+        print(f"{link:<22}{len(values):>10}{len(values) / args.seconds:>10.1f}"
+              f"{max(0, frames - len(values)):>8}{np.median(lat):>12.2f}"
+              f"{np.percentile(lat, 99):>12.2f}")
+    print(f"node CPU: {100 * (cpu1 - cpu0) / (wall1 - wall0):.0f} % of one core")
+
+
+if __name__ == "__main__":
+    main()
