@@ -1,0 +1,185 @@
+"""The controller node in an isolated ROS domain: contact in → command out, stale input → zero,
+NaN input refused while the node stays up, parameters validated, zero on shutdown."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Iterator
+
+import numpy as np
+import pytest
+from geometry_msgs.msg import Twist
+from nav_msgs.msg import Odometry
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import JointState, PointCloud2
+from std_msgs.msg import Float64MultiArray
+from std_srvs.srv import Trigger
+from wbc_fake_kinematics import FakeKinematics
+
+from phri_common.contact import ContactState, contact_to_msg
+from wholebody_controller.config import SKIN_LINKS
+from wholebody_controller.messages import msg_to_task_state
+from wholebody_controller.node import WholeBodyControllerNode
+
+ARM = [0.3, -1.2, 1.5, -1.0, -1.57, 0.0, -0.3, 1.2, -1.5, 1.0, 1.57, 0.0]
+CENTER = np.array([-0.15, 0.0, 0.05])
+
+
+class Harness:
+    def __init__(self, context: object) -> None:
+        self.node = WholeBodyControllerNode(kinematics=FakeKinematics(), context=context)
+        self.peer = Node("wbc_test_peer", context=context)
+        self.executor = SingleThreadedExecutor(context=context)  # type: ignore[arg-type]
+        self.executor.add_node(self.node)
+        self.executor.add_node(self.peer)
+        self.joints_pub = self.peer.create_publisher(JointState, "/joint_states", 10)
+        self.odom_pub = self.peer.create_publisher(Odometry, "/odom", 10)
+        self.contact_pubs = {
+            link: self.peer.create_publisher(PointCloud2, f"contacts/{link}", 10)
+            for link in SKIN_LINKS
+        }
+        self.twists: list[Twist] = []
+        self.left: list[Float64MultiArray] = []
+        self.states: list[PointCloud2] = []
+        self.peer.create_subscription(Twist, "/cmd_vel", self.twists.append, 10)
+        self.peer.create_subscription(
+            Float64MultiArray, "left/forward_velocity_controller/commands", self.left.append, 10
+        )
+        self.peer.create_subscription(
+            PointCloud2, "/wholebody_controller/state/left_forearm_link", self.states.append, 10
+        )
+        self.joint_names = list(self.node.arm_joints)
+        self.node_destroyed = False
+
+    def publish_inputs(self, force: np.ndarray | None, contacts: bool = True,
+                       joints: list[float] | None = None) -> None:
+        stamp = self.peer.get_clock().now().to_msg()
+        js = JointState(name=self.joint_names, position=joints or ARM)
+        js.header.stamp = stamp
+        self.joints_pub.publish(js)
+        odom = Odometry()
+        odom.pose.pose.orientation.w = 1.0
+        self.odom_pub.publish(odom)
+        if not contacts:
+            return
+        for link, pub in self.contact_pubs.items():
+            if link == "left_forearm_link" and force is not None:
+                state = ContactState(link, 1, True, CENTER, force, np.zeros(3), CENTER - 0.02,
+                                     CENTER + 0.02, 16)
+            else:
+                state = ContactState.no_contact(link, 1)
+            pub.publish(contact_to_msg(state))
+
+    def run(self, until: Callable[[], bool], timeout: float = 5.0, **inputs: object) -> bool:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            self.publish_inputs(**inputs)  # type: ignore[arg-type]
+            end = time.monotonic() + 0.01
+            while time.monotonic() < end:
+                self.executor.spin_once(timeout_sec=0.002)
+            if until():
+                return True
+        return until()
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        if not self.node_destroyed:
+            self.node.destroy_node()
+        self.peer.destroy_node()
+
+
+@pytest.fixture
+def harness(ros_context: object) -> Iterator[Harness]:
+    h = Harness(ros_context)
+    yield h
+    h.close()
+
+
+def nonzero(msgs: list[Float64MultiArray]) -> bool:
+    return bool(msgs) and max(abs(v) for v in msgs[-1].data) > 1e-4
+
+
+@pytest.mark.ros
+def test_contact_in_command_out_then_stale_contact_gives_zero(harness: Harness) -> None:
+    assert harness.run(lambda: nonzero(harness.left), force=np.array([0.0, 0.0, 12.0]))
+    assert harness.states, "task state published"
+    state = msg_to_task_state(harness.states[-1])
+    assert state["psi"] > 1e-4 and state["in_contact"] == 1.0
+    assert len(harness.left[-1].data) == 6
+    # Contacts stop arriving (joints and odometry keep coming) → zero within the timeout.
+    zero_before = harness.node.zero_cycles
+    assert harness.run(lambda: harness.node.zero_cycles > zero_before and not nonzero(harness.left)
+                       and abs(harness.twists[-1].linear.x) + abs(harness.twists[-1].linear.y)
+                       == 0.0,
+                       force=None, contacts=False, timeout=3.0)
+    # Inputs come back → commands again.
+    assert harness.run(lambda: nonzero(harness.left), force=np.array([0.0, 0.0, 12.0]))
+
+
+@pytest.mark.ros
+def test_nan_input_refused_node_stays_alive(harness: Harness) -> None:
+    assert harness.run(lambda: harness.node.good_cycles > 3, force=None)
+    bad = list(ARM)
+    bad[2] = math.nan
+    assert harness.run(lambda: harness.node.rejected_inputs > 0, force=None, joints=bad,
+                       timeout=2.0)
+    # NaN joints never updated the state: still the good values, and good cycles resume.
+    assert np.all(np.isfinite(harness.node.arm_q))
+    good = harness.node.good_cycles
+    assert harness.run(lambda: harness.node.good_cycles > good + 3, force=None)
+    # A NaN contact state is refused too.
+    msg = contact_to_msg(ContactState("left_forearm_link", 1, True, CENTER,
+                                      np.array([1.0, 0.0, 0.0]), np.zeros(3), CENTER, CENTER, 1))
+    data = bytearray(msg.data)
+    data[0:8] = np.array([math.nan]).tobytes()
+    msg.data = bytes(data)
+    rejected = harness.node.rejected_inputs
+    harness.contact_pubs["left_forearm_link"].publish(msg)
+    assert harness.run(lambda: harness.node.rejected_inputs > rejected, force=None,
+                       contacts=False, timeout=2.0)
+
+
+@pytest.mark.ros
+def test_parameters_validated_and_applied(harness: Harness) -> None:
+    node = harness.node
+    result = node.set_parameters([Parameter("left_forearm_link.damping", value=[-1.0] * 6)])
+    assert not result[0].successful and "left_forearm_link.damping" in result[0].reason
+    result = node.set_parameters([Parameter("solver", value="quadprog")])
+    assert not result[0].successful and "solver" in result[0].reason
+    result = node.set_parameters([Parameter("left_forearm_link.priority_lock", value=1.0),
+                                  Parameter("left_forearm_link.desired_force",
+                                            value=[0.0, -10.0, 0.0]),
+                                  Parameter("solver", value="osqp")])
+    assert all(r.successful for r in result)
+    assert node.controller is not None
+    cfg = node.controller.config.link("left_forearm_link")
+    assert cfg.priority_lock == 1.0 and cfg.desired_force == (0.0, -10.0, 0.0)
+    assert node.controller.solver.name == "osqp"
+
+
+@pytest.mark.ros
+def test_record_q_dance_and_shutdown_zero(harness: Harness) -> None:
+    node = harness.node
+    assert harness.run(lambda: node.good_cycles > 2, force=None)
+    res = node._record_q_dance(Trigger.Request(), Trigger.Response())
+    assert res.success, res.message
+    assert node.controller is not None
+    lower = node.controller.position_lower[3:]
+    np.testing.assert_allclose(lower, np.array(ARM) - 0.1, atol=1e-12)
+    res = node._release_q_dance(Trigger.Request(), Trigger.Response())
+    assert res.success and node.controller.config.joint_ranges == ()
+    # Shutdown sends a zero command.
+    assert harness.run(lambda: nonzero(harness.left), force=np.array([0.0, 0.0, 12.0]))
+    harness.executor.remove_node(node)
+    count = len(harness.left)
+    node.destroy_node()
+    harness.node_destroyed = True
+    deadline = time.monotonic() + 2.0
+    # Destroyed: nothing non-zero can follow, so the last message must end up zero.
+    while (len(harness.left) <= count or nonzero(harness.left)) and time.monotonic() < deadline:
+        harness.executor.spin_once(timeout_sec=0.01)
+    assert len(harness.left) > count and not nonzero(harness.left)
+    assert harness.twists[-1].linear.x == 0.0 and harness.twists[-1].angular.z == 0.0

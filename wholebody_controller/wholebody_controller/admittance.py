@@ -1,0 +1,81 @@
+"""Cartesian admittance (13) discretised exactly for a zero-order-hold wrench.
+
+The continuous law ``Λ ẍ̃ + D ẋ̃ + K x̃ = w`` (13) is the linear system ``ṡ = A s + B w`` with
+``s = [x̃; ẋ̃]``, ``A = [[0, I], [−Λ⁻¹K, −Λ⁻¹D]]``, ``B = [0; Λ⁻¹]``. The wrench is sampled once per
+control period and held (zero-order hold), so the exact discrete system is
+
+    s[k+1] = Φ s[k] + Γ w[k],    Φ = e^{A·dt},    Γ = ∫₀^dt e^{Aτ} dτ · B,
+
+computed once per (Λ, D, K, dt) with one matrix exponential of the augmented 18×18 matrix
+``[[A, B], [0, 0]]``. Every eigenvalue ``e^{λ dt}`` of Φ has modulus ≤ 1 whenever the continuous
+system is stable (Λ ≻ 0, D, K ⪰ 0), whatever dt: unlike explicit Euler — unstable once
+``D/Λ · dt > 2``, which the waltz set (Λ = 0.1, D = 200) reaches at 100 Hz with 20 — this scheme
+holds for every parameter set of the paper at 100–500 Hz and reproduces the continuous response
+at the sample instants.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.linalg import expm
+
+Array = NDArray[np.float64]
+
+
+def discretise(
+    inertia: Array, damping: Array, stiffness: Array, dt: float
+) -> tuple[Array, Array]:
+    """Exact zero-order-hold discretisation ``(Φ 12×12, Γ 12×6)`` of (13).
+
+    Args:
+        inertia: Λ (6×6, symmetric positive definite).
+        damping: D (6×6).
+        stiffness: K (6×6).
+        dt: sample period [s], > 0.
+    """
+    if dt <= 0.0 or not np.isfinite(dt):
+        raise ValueError(f"admittance sample period must be > 0, got {dt}")
+    lam_inv = np.linalg.inv(inertia)
+    a = np.zeros((18, 18))
+    a[0:6, 6:12] = np.eye(6)
+    a[6:12, 0:6] = -lam_inv @ stiffness
+    a[6:12, 6:12] = -lam_inv @ damping
+    a[6:12, 12:18] = lam_inv
+    m = expm(a * dt)
+    return m[0:12, 0:12].copy(), m[0:12, 12:18].copy()
+
+
+class Admittance:
+    """State ``(x̃, ẋ̃)`` of one contact centre's admittance (13)–(14), world frame.
+
+    The first three entries are translation [m] / [m/s], the last three rotation [rad] / [rad/s]
+    (a rotation vector, see :mod:`wholebody_controller.controller`).
+    """
+
+    def __init__(self, inertia: Array, damping: Array, stiffness: Array, dt: float) -> None:
+        self._phi, self._gamma = discretise(inertia, damping, stiffness, dt)
+        self._state = np.zeros(12)
+        self.dt = dt
+
+    @property
+    def deflection(self) -> Array:
+        """x̃ (14): [m, m, m, rad, rad, rad]."""
+        return self._state[0:6]
+
+    @property
+    def deflection_velocity(self) -> Array:
+        """ẋ̃: [m/s, …, rad/s]."""
+        return self._state[6:12]
+
+    def step(self, wrench: Array) -> None:
+        """Advance one period with the wrench ``w`` [N, N·m] held constant over it."""
+        self._state = self._phi @ self._state + self._gamma @ wrench
+
+    def reset(self) -> None:
+        """``x̃, ẋ̃ ← 0`` (Algorithm 1, line 10)."""
+        self._state = np.zeros(12)
+
+    def zero_deflection(self) -> None:
+        """``x̃ ← 0`` keeping ẋ̃: while inactive the reference trails the link, so (14) gives 0."""
+        self._state[0:6] = 0.0

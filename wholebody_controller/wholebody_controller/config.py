@@ -1,0 +1,207 @@
+"""Controller configuration: plain frozen dataclasses (no ROS), defaults from the paper.
+
+Defaults are Table II and Section VI of the paper: q̇ ∈ [−0.15, 0.15] (rad/s for joints, m/s for
+the base translation), k_η = 200, b = 4, K_p = 5, ψ_thr = 1e-4, ε = 0.1, h = 0.15, 100 Hz, and the
+desired-region margin of 0.01 m (VI-A.2). The default admittance is the contact-centring set of
+VI-A.1 (Λ = 0.5 I, D = 40 I, K = 0); the other experiments' sets are provided as constants.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+SKIN_LINKS: tuple[str, ...] = ("left_upper_arm_link", "left_forearm_link", "right_forearm_link")
+SOLVERS: tuple[str, ...] = ("daqp", "osqp")
+
+Vector6 = tuple[float, float, float, float, float, float]
+
+
+def _six(value: float) -> Vector6:
+    return (value, value, value, value, value, value)
+
+
+@dataclass(frozen=True)
+class AdmittanceGains:
+    """Diagonals of the admittance matrices of (13), one entry per [x, y, z, rx, ry, rz].
+
+    Attributes:
+        inertia: Λ [kg] / [kg·m²], every entry > 0.
+        damping: D [N·s/m] / [N·m·s/rad], ≥ 0.
+        stiffness: K [N/m] / [N·m/rad], ≥ 0.
+    """
+
+    inertia: Vector6 = (0.5, 0.5, 0.5, 0.5, 0.5, 0.5)
+    damping: Vector6 = (40.0, 40.0, 40.0, 40.0, 40.0, 40.0)
+    stiffness: Vector6 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+
+    def __post_init__(self) -> None:
+        for name in ("inertia", "damping", "stiffness"):
+            values = getattr(self, name)
+            if len(values) != 6 or not all(math.isfinite(v) for v in values):
+                raise ValueError(f"admittance {name} must be 6 finite numbers, got {values!r}")
+        if min(self.inertia) <= 0.0:
+            raise ValueError(f"admittance inertia must be > 0, got {self.inertia!r}")
+        if min(self.damping) < 0.0 or min(self.stiffness) < 0.0:
+            raise ValueError("admittance damping and stiffness must be ≥ 0")
+
+
+#: Paper parameter sets (Sec. VI).
+CONTACT_CENTRING = AdmittanceGains(_six(0.5), _six(40.0), _six(0.0))
+CONTACT_TRACKING = AdmittanceGains(_six(0.5), (40.0, 40.0, 500.0, 40.0, 40.0, 40.0), _six(0.0))
+WHOLE_BODY = AdmittanceGains(_six(0.5), _six(60.0), _six(40.0))
+WALTZ = AdmittanceGains(_six(0.1), _six(200.0), _six(0.0))
+
+
+@dataclass(frozen=True)
+class LinkTaskConfig:
+    """One skin link's interaction task.
+
+    The automatic task (V-B, second scenario) needs only ``link`` and ``admittance``. A manual task
+    (V-B, first scenario) sets any of:
+
+    Attributes:
+        link: link (frame) name as the kinematics knows it.
+        admittance: Λ, D, K of (13).
+        priority_lock: fixed priority ψ in (0, 1]; ``None`` = automatic (15).
+        desired_force: force [N] the link is to exert on its environment, in the base frame
+            (added to the wrench (12); the waltz uses 10 N to the right, i.e. (0, −10, 0)).
+        reference: user reference pose of the link frame γ_i in the world, ``(R 3×3, p 3)``
+            flattened as 12 numbers (row-major R, then p); ``None`` = locked at activation.
+        desired_region: user desired region Ω_d in the link frame as ``(min xyz, max xyz)``
+            (no margin added); ``None`` = the region at contact onset plus the margin.
+    """
+
+    link: str
+    admittance: AdmittanceGains = field(default_factory=AdmittanceGains)
+    priority_lock: float | None = None
+    desired_force: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    reference: tuple[float, ...] | None = None
+    desired_region: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
+
+    def __post_init__(self) -> None:
+        if self.priority_lock is not None and not 0.0 < self.priority_lock <= 1.0:
+            raise ValueError(
+                f"{self.link}: priority_lock must be in (0, 1], got {self.priority_lock}"
+            )
+        if len(self.desired_force) != 3 or not all(math.isfinite(f) for f in self.desired_force):
+            raise ValueError(f"{self.link}: desired_force must be 3 finite numbers")
+        if self.reference is not None:
+            ref = np.asarray(self.reference, dtype=float)
+            if ref.shape != (12,) or not np.all(np.isfinite(ref)):
+                raise ValueError(f"{self.link}: reference must be 12 finite numbers (R, p)")
+            rot = ref[:9].reshape(3, 3)
+            if not np.allclose(rot @ rot.T, np.eye(3), atol=1e-6) or np.linalg.det(rot) < 0:
+                raise ValueError(f"{self.link}: reference rotation is not a rotation matrix")
+        if self.desired_region is not None:
+            lo, hi = (np.asarray(c, dtype=float) for c in self.desired_region)
+            if lo.shape != (3,) or hi.shape != (3,) or not np.all(lo <= hi):
+                raise ValueError(f"{self.link}: desired_region needs min ≤ max, 3 numbers each")
+
+
+@dataclass(frozen=True)
+class JointRange:
+    """A per-task joint position range [rad] (or [m]) intersected with the joint's own limits
+    (the waltz holds each arm joint within ±0.1 rad of q_dance)."""
+
+    joint: str
+    lower: float
+    upper: float
+
+    def __post_init__(self) -> None:
+        if not (self.lower <= self.upper) or math.isnan(self.lower) or math.isnan(self.upper):
+            raise ValueError(f"joint range of {self.joint}: need lower ≤ upper, got "
+                             f"[{self.lower}, {self.upper}]")
+
+
+def dance_ranges(
+    joints: Sequence[str], q_dance: Sequence[float], half_width: float = 0.1
+) -> tuple[JointRange, ...]:
+    """Ranges ``q_dance ± half_width`` (VI-B) for the given joints."""
+    if len(joints) != len(q_dance):
+        raise ValueError(f"q_dance has {len(q_dance)} values for {len(joints)} joints")
+    if half_width < 0.0:
+        raise ValueError("q_dance half width must be ≥ 0")
+    return tuple(
+        JointRange(name, float(q) - half_width, float(q) + half_width)
+        for name, q in zip(joints, q_dance, strict=True)
+    )
+
+
+@dataclass(frozen=True)
+class ControllerConfig:
+    """Everything the whole-body controller needs (Table II defaults).
+
+    Attributes:
+        links: the interaction tasks, one per skin link.
+        k_eta: track-force gain k_η of (12) [N/m].
+        b: priority shape b of (15) [s²/m²] (applied to the 6-vector norm of ẋ̃).
+        k_p: task-space gain K_p of (19) [1/s].
+        psi_thr: activation threshold ψ_thr, also the floor of every weight.
+        epsilon: regularisation ε of (23).
+        horizon: position-limit horizon h of (22) [s].
+        rate_hz: control rate [Hz]; the admittance is discretised for 1/rate_hz.
+        region_margin: margin added on every side of the region locked as Ω_d [m].
+        velocity_limit: |q̇| bound for every joint and base axis [rad/s] / [m/s] (Table II),
+            intersected with the robot's own velocity limits.
+        joint_ranges: extra position ranges (intersected with the joint limits).
+        solver: QP backend, ``"daqp"`` (exact active set, default: faster and exact) or
+            ``"osqp"`` (the paper's, warm-started with tight tolerances).
+    """
+
+    links: tuple[LinkTaskConfig, ...] = tuple(LinkTaskConfig(name) for name in SKIN_LINKS)
+    k_eta: float = 200.0
+    b: float = 4.0
+    k_p: float = 5.0
+    psi_thr: float = 1e-4
+    epsilon: float = 0.1
+    horizon: float = 0.15
+    rate_hz: float = 100.0
+    region_margin: float = 0.01
+    velocity_limit: float = 0.15
+    joint_ranges: tuple[JointRange, ...] = ()
+    solver: str = "daqp"
+
+    def __post_init__(self) -> None:
+        checks = {
+            "k_eta": self.k_eta >= 0.0,
+            "b": self.b >= 0.0,
+            "k_p": self.k_p >= 0.0,
+            "psi_thr": 0.0 < self.psi_thr < 1.0,
+            "epsilon": self.epsilon > 0.0,
+            "horizon": self.horizon > 0.0,
+            "rate_hz": self.rate_hz > 0.0,
+            "region_margin": self.region_margin >= 0.0,
+            "velocity_limit": self.velocity_limit >= 0.0,
+        }
+        for name, ok in checks.items():
+            value = getattr(self, name)
+            if not ok or not math.isfinite(value):
+                raise ValueError(f"controller config: {name} = {value!r} is out of range")
+        if self.solver not in SOLVERS:
+            raise ValueError(f"controller config: solver must be one of {SOLVERS}, got "
+                             f"{self.solver!r}")
+        names = [t.link for t in self.links]
+        if len(set(names)) != len(names):
+            raise ValueError(f"controller config: duplicate links in {names}")
+
+    @property
+    def dt(self) -> float:
+        """Control period [s]."""
+        return 1.0 / self.rate_hz
+
+    def link(self, name: str) -> LinkTaskConfig:
+        """The task config of one link."""
+        for task in self.links:
+            if task.link == name:
+                return task
+        raise KeyError(name)
+
+
+def diag6(values: Sequence[float]) -> NDArray[np.float64]:
+    """6×6 diagonal matrix from 6 numbers."""
+    return np.diag(np.asarray(values, dtype=np.float64))

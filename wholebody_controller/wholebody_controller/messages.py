@@ -1,0 +1,156 @@
+"""Message ↔ numpy conversions of the controller node (pure: message types, no rclpy).
+
+Commands:
+  * ``/cmd_vel`` (``geometry_msgs/Twist``): base twist in the base frame, ``linear.x/y`` [m/s],
+    ``angular.z`` [rad/s]; everything else 0.
+  * ``<arm>/forward_velocity_controller/commands`` (``std_msgs/Float64MultiArray``): 6 joint
+    velocities [rad/s] in the order shoulder_pan, shoulder_lift, elbow, wrist_1, wrist_2, wrist_3
+    (ur_robot_driver's order), one ``dim`` labelled with the joint names joined by commas.
+
+Task state (``~/state/<link>``, ``sensor_msgs/PointCloud2``, one point, self-describing fields —
+see :data:`TASK_STATE_FIELDS`): header.frame_id is the world frame; every vector is in it except
+``center_link_*`` (ᶦp_η, link frame).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from geometry_msgs.msg import Twist
+from nav_msgs.msg import Odometry
+from numpy.typing import NDArray
+from sensor_msgs.msg import JointState, PointCloud2
+from std_msgs.msg import Float64MultiArray, Header, MultiArrayDimension
+
+from phri_common.cloud import cloud_records, point_fields, record_dtype
+from phri_common.stamps import ns_to_stamp
+from wholebody_controller.contact_task import TaskOutput
+
+Array = NDArray[np.float64]
+
+_LIN = ("x", "y", "z")
+_TWIST = ("vx", "vy", "vz", "wx", "wy", "wz")
+_POSE6 = ("x", "y", "z", "rx", "ry", "rz")
+_WRENCH = ("fx", "fy", "fz", "tx", "ty", "tz")
+_VECTOR_FIELDS: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("deflection", _POSE6),
+    ("deflection_velocity", _TWIST),
+    ("wrench", _WRENCH),
+    ("track_force", _LIN),
+    ("control_velocity", _TWIST),
+    ("tracking_error", _TWIST),
+    ("center_link", _LIN),
+)
+_STATE_DTYPE = record_dtype(
+    [("psi", "f8"), ("psi_raw", "f8")]
+    + [(f"{name}_{axis}", "f8") for name, axes in _VECTOR_FIELDS for axis in axes]
+    + [("phase", "u1"), ("in_contact", "u1")]
+)
+#: Field names of the task-state record, in order.
+TASK_STATE_FIELDS: tuple[str, ...] = tuple(_STATE_DTYPE.names or ())
+
+
+class InputError(ValueError):
+    """An input message is malformed or holds non-finite values."""
+
+
+def command_to_twist(command: Array) -> Twist:
+    """Base part of the command ``[v_x, v_y, ω_z, …]`` → ``Twist`` (base frame)."""
+    twist = Twist()
+    twist.linear.x = float(command[0])
+    twist.linear.y = float(command[1])
+    twist.angular.z = float(command[2])
+    return twist
+
+
+def arm_command(velocities: Array, joints: Sequence[str]) -> Float64MultiArray:
+    """Six joint velocities [rad/s] → ``Float64MultiArray`` labelled with the joint order."""
+    msg = Float64MultiArray()
+    msg.layout.dim = [
+        MultiArrayDimension(label=",".join(joints), size=len(joints), stride=len(joints))
+    ]
+    msg.data = [float(v) for v in velocities]
+    return msg
+
+
+def odom_to_base(msg: Odometry) -> Array:
+    """``nav_msgs/Odometry`` → q_b = [x, y, yaw] (world/odom frame) [m, m, rad].
+
+    Raises:
+        InputError: non-finite pose or a quaternion far from unit length.
+    """
+    p = msg.pose.pose.position
+    o = msg.pose.pose.orientation
+    values = np.array([p.x, p.y, o.x, o.y, o.z, o.w], dtype=np.float64)
+    if not np.all(np.isfinite(values)):
+        raise InputError(f"odometry holds non-finite values: {values}")
+    norm = math.sqrt(o.x**2 + o.y**2 + o.z**2 + o.w**2)
+    if not 0.5 < norm < 1.5:
+        raise InputError(f"odometry quaternion has norm {norm:.3g}")
+    yaw = math.atan2(2.0 * (o.w * o.z + o.x * o.y), 1.0 - 2.0 * (o.y**2 + o.z**2))
+    return np.array([p.x, p.y, yaw])
+
+
+def joint_positions(msg: JointState) -> dict[str, float]:
+    """``sensor_msgs/JointState`` → positions by joint name [rad].
+
+    Raises:
+        InputError: names and positions differ in length, or a position is not finite.
+    """
+    if len(msg.name) != len(msg.position):
+        raise InputError(
+            f"joint state has {len(msg.name)} names but {len(msg.position)} positions"
+        )
+    positions = np.asarray(msg.position, dtype=np.float64)
+    if not np.all(np.isfinite(positions)):
+        bad = [n for n, v in zip(msg.name, positions, strict=True) if not math.isfinite(v)]
+        raise InputError(f"joint state holds non-finite positions for {bad}")
+    return dict(zip(msg.name, positions.tolist(), strict=True))
+
+
+def task_state_to_msg(
+    task: TaskOutput, tracking_error: Array, stamp_ns: int, frame_id: str
+) -> PointCloud2:
+    """One link's controller state as a one-point PointCloud2 (fields :data:`TASK_STATE_FIELDS`)."""
+    record = np.zeros(1, dtype=_STATE_DTYPE)
+    record["psi"] = task.psi
+    record["psi_raw"] = task.psi_raw
+    vectors = {
+        "deflection": task.deflection,
+        "deflection_velocity": task.deflection_velocity,
+        "wrench": task.wrench,
+        "track_force": task.track_force,
+        "control_velocity": task.control_velocity,
+        "tracking_error": tracking_error,
+        "center_link": task.point,
+    }
+    for name, axes in _VECTOR_FIELDS:
+        for i, axis in enumerate(axes):
+            record[f"{name}_{axis}"] = vectors[name][i]
+    record["phase"] = int(task.phase)
+    record["in_contact"] = 1 if task.in_contact else 0
+    return PointCloud2(
+        header=Header(stamp=ns_to_stamp(stamp_ns), frame_id=frame_id),
+        height=1,
+        width=1,
+        fields=point_fields(_STATE_DTYPE),
+        is_bigendian=False,
+        point_step=_STATE_DTYPE.itemsize,
+        row_step=_STATE_DTYPE.itemsize,
+        data=record.tobytes(),
+        is_dense=True,
+    )
+
+
+def msg_to_task_state(msg: PointCloud2) -> dict[str, float]:
+    """Decode a task-state PointCloud2 into ``{field: value}`` (for plots and tests)."""
+    records = cloud_records(msg)
+    if records.shape[0] != 1:
+        raise InputError(f"task state must hold 1 point, got {records.shape[0]}")
+    names = records.dtype.names or ()
+    missing = [f for f in TASK_STATE_FIELDS if f not in names]
+    if missing:
+        raise InputError(f"task state lacks fields {missing}")
+    return {name: float(records[0][name]) for name in TASK_STATE_FIELDS}

@@ -1,0 +1,259 @@
+"""ROS 2 node around :class:`~wholebody_controller.controller.WholeBodyController` (thin).
+
+Subscribes ``contacts/<link>`` (contact states), ``/joint_states`` and ``/odom``; a timer at
+``rate_hz`` runs one control cycle and publishes ``/cmd_vel``, ``left/…`` and
+``right/forward_velocity_controller/commands`` and ``~/state/<link>``. Safety (design §8): any
+input older than its timeout, a QP failure, or a refused (NaN) input leads to a zero command in
+that cycle; the next good cycle recovers; shutdown publishes zero. See
+``docs/wholebody_controller.md``.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import rclpy
+from geometry_msgs.msg import Twist
+from nav_msgs.msg import Odometry
+from rclpy.node import Node
+from rclpy.qos import qos_profile_sensor_data
+from sensor_msgs.msg import JointState, PointCloud2
+from std_msgs.msg import Float64MultiArray
+from std_srvs.srv import Trigger
+
+from phri_common.contact import ContactMessageError, ContactState, msg_to_contact
+from phri_common.params import ParamValue
+from phri_common.ros_main import run_nodes
+from phri_common.ros_params import declare_parameters
+from wholebody_controller.controller import KinematicsModel, WholeBodyController
+from wholebody_controller.messages import (
+    InputError,
+    arm_command,
+    command_to_twist,
+    joint_positions,
+    odom_to_base,
+    task_state_to_msg,
+)
+from wholebody_controller.parameters import (
+    GLOBAL_PARAMS,
+    LINKS_PARAM,
+    config_from_values,
+    link_param_specs,
+)
+from wholebody_controller.qp import QPError
+
+
+def default_kinematics() -> KinematicsModel:
+    """The robot's kinematics from phri_description (MuJoCo)."""
+    from wholebody_controller.kinematics import RobotKinematics
+
+    kin: KinematicsModel = RobotKinematics()
+    return kin
+
+
+class WholeBodyControllerNode(Node):
+    """The whole-body controller node."""
+
+    def __init__(
+        self,
+        *,
+        kinematics: KinematicsModel | None = None,
+        node_name: str = "wholebody_controller",
+        **kwargs: Any,
+    ) -> None:
+        super().__init__(node_name, **kwargs)
+        self.kinematics = kinematics if kinematics is not None else default_kinematics()
+        joints = list(self.kinematics.joint_names)
+        self.arm_joints: tuple[str, ...] = tuple(joints[3:])
+        self.left_joints, self.right_joints = self.arm_joints[0:6], self.arm_joints[6:12]
+        if len(self.arm_joints) != 12:
+            raise ValueError(f"expected 12 arm joints, got {self.arm_joints}")
+
+        links_values = declare_parameters(self, [LINKS_PARAM])
+        self.links: tuple[str, ...] = tuple(str(x) for x in links_values["links"])
+        specs = [*GLOBAL_PARAMS, *(s for link in self.links for s in link_param_specs(link))]
+        self.controller: WholeBodyController | None = None
+        self.params = declare_parameters(self, specs, self._on_params)
+        self.controller = WholeBodyController(self.kinematics, self._config(self.params))
+
+        # Latest inputs and when they arrived (monotonic [s]; -inf = never).
+        self.contacts: dict[str, ContactState] = {}
+        self.contact_time = dict.fromkeys(self.links, -np.inf)
+        self.arm_q = np.zeros(12)
+        self.arm_time = np.full(12, -np.inf)
+        self.base_q = np.zeros(3)
+        self.odom_time = -np.inf
+        # Counters (diagnostics and tests).
+        self.rejected_inputs = 0
+        self.qp_failures = 0
+        self.zero_cycles = 0
+        self.good_cycles = 0
+        self._stale = True
+
+        self.cmd_pub = self.create_publisher(Twist, "/cmd_vel", 10)
+        self.left_pub = self.create_publisher(
+            Float64MultiArray, "left/forward_velocity_controller/commands", 10
+        )
+        self.right_pub = self.create_publisher(
+            Float64MultiArray, "right/forward_velocity_controller/commands", 10
+        )
+        self.state_pubs = {
+            link: self.create_publisher(PointCloud2, f"~/state/{link}", 10) for link in self.links
+        }
+        for link in self.links:
+            self.create_subscription(
+                PointCloud2, f"contacts/{link}",
+                lambda msg, link=link: self._on_contact(link, msg), qos_profile_sensor_data,
+            )
+        self.create_subscription(JointState, "/joint_states", self._on_joints,
+                                 qos_profile_sensor_data)
+        self.create_subscription(Odometry, "/odom", self._on_odom, qos_profile_sensor_data)
+        self.create_service(Trigger, "~/record_q_dance", self._record_q_dance)
+        self.create_service(Trigger, "~/release_q_dance", self._release_q_dance)
+        self.create_service(Trigger, "~/reset", self._reset)
+        period = 1.0 / float(self.params["rate_hz"])
+        self.timer = self.create_timer(period, self.tick)
+
+    # -- parameters -----------------------------------------------------------------------------
+    def _config(self, values: dict[str, ParamValue]) -> Any:
+        return config_from_values(values, self.links, self.arm_joints)
+
+    def _on_params(self, values: dict[str, ParamValue]) -> None:
+        config = self._config(values)  # raises ValueError naming the parameter
+        if self.controller is not None:
+            self.controller.configure(config)
+
+    # -- inputs ---------------------------------------------------------------------------------
+    def _refuse(self, what: str, err: Exception) -> None:
+        self.rejected_inputs += 1
+        self.get_logger().warning(f"refused {what}: {err}", throttle_duration_sec=1.0)
+
+    def _on_contact(self, link: str, msg: PointCloud2) -> None:
+        try:
+            state = msg_to_contact(msg)
+            if state.link != link:
+                raise InputError(f"frame_id {state.link!r} on the topic of {link!r}")
+        except (ContactMessageError, InputError) as err:
+            self._refuse(f"contact state of {link}", err)
+            return
+        self.contacts[link] = state
+        self.contact_time[link] = time.monotonic()
+
+    def _on_joints(self, msg: JointState) -> None:
+        try:
+            positions = joint_positions(msg)
+        except InputError as err:
+            self._refuse("joint state", err)
+            return
+        now = time.monotonic()
+        for i, name in enumerate(self.arm_joints):
+            if name in positions:
+                self.arm_q[i] = positions[name]
+                self.arm_time[i] = now
+
+    def _on_odom(self, msg: Odometry) -> None:
+        try:
+            self.base_q = odom_to_base(msg)
+        except InputError as err:
+            self._refuse("odometry", err)
+            return
+        self.odom_time = time.monotonic()
+
+    # -- services -------------------------------------------------------------------------------
+    def _record_q_dance(self, _req: Trigger.Request, res: Trigger.Response) -> Trigger.Response:
+        if not np.all(np.isfinite(self.arm_time)):
+            res.success, res.message = False, "no joint state received for every arm joint"
+            return res
+        result = self.set_parameters([
+            rclpy.parameter.Parameter("q_dance", value=[float(x) for x in self.arm_q]),
+            rclpy.parameter.Parameter("q_dance_enabled", value=True),
+        ])
+        res.success = all(r.successful for r in result)
+        res.message = "; ".join(r.reason for r in result if not r.successful) or (
+            f"q_dance = {np.round(self.arm_q, 4).tolist()}"
+        )
+        return res
+
+    def _release_q_dance(self, _req: Trigger.Request, res: Trigger.Response) -> Trigger.Response:
+        result = self.set_parameters([rclpy.parameter.Parameter("q_dance_enabled", value=False)])
+        res.success = result[0].successful
+        res.message = result[0].reason or "q_dance released"
+        return res
+
+    def _reset(self, _req: Trigger.Request, res: Trigger.Response) -> Trigger.Response:
+        if self.controller is not None:
+            self.controller.reset()
+        res.success, res.message = True, "interaction tasks reset"
+        return res
+
+    # -- control cycle --------------------------------------------------------------------------
+    def stale_reason(self, now: float) -> str | None:
+        """Why the inputs cannot be used now, or ``None``."""
+        p = self.params
+        contact_timeout = float(p["contact_timeout"])
+        stale_links = [k for k, t in self.contact_time.items() if now - t > contact_timeout]
+        if stale_links:
+            return f"stale contact states: {', '.join(stale_links)}"
+        joint_age = now - float(np.min(self.arm_time))
+        if joint_age > float(p["joint_state_timeout"]):
+            return "stale joint states"
+        if now - self.odom_time > float(p["odom_timeout"]):
+            return "stale odometry"
+        return None
+
+    def publish_zero(self) -> None:
+        """Zero base twist and zero arm velocities."""
+        zero = np.zeros(15)
+        self.cmd_pub.publish(command_to_twist(zero))
+        self.left_pub.publish(arm_command(zero[3:9], self.left_joints))
+        self.right_pub.publish(arm_command(zero[9:15], self.right_joints))
+
+    def tick(self) -> None:
+        """One control cycle (timer callback)."""
+        assert self.controller is not None
+        reason = self.stale_reason(time.monotonic())
+        if reason is not None:
+            if not self._stale:
+                self.get_logger().warning(f"{reason}: zero command", throttle_duration_sec=1.0)
+                self.controller.reset()
+            self._stale = True
+            self.zero_cycles += 1
+            self.publish_zero()
+            return
+        self._stale = False
+        q = np.concatenate([self.base_q, self.arm_q])
+        try:
+            result = self.controller.step(q, self.contacts)
+        except (QPError, ValueError, np.linalg.LinAlgError) as err:
+            self.qp_failures += 1
+            self.zero_cycles += 1
+            self.get_logger().error(f"control step failed: {err}; zero command",
+                                    throttle_duration_sec=1.0)
+            self.publish_zero()
+            return
+        command = result.command
+        self.cmd_pub.publish(command_to_twist(command))
+        self.left_pub.publish(arm_command(command[3:9], self.left_joints))
+        self.right_pub.publish(arm_command(command[9:15], self.right_joints))
+        stamp = self.get_clock().now().nanoseconds
+        frame = str(self.params["world_frame"])
+        for task, error in zip(result.tasks, result.tracking_errors, strict=True):
+            self.state_pubs[task.link].publish(task_state_to_msg(task, error, stamp, frame))
+        self.good_cycles += 1
+
+    def destroy_node(self) -> None:
+        """Send zero velocity, then tear down."""
+        try:
+            self.publish_zero()
+        except Exception as err:  # context may already be gone
+            self.get_logger().warning(f"could not publish the final zero command: {err}")
+        super().destroy_node()
+
+
+def main(args: Sequence[str] | None = None) -> None:
+    """Entry point ``wholebody_controller_node``; Ctrl-C / SIGTERM publish zero before exiting."""
+    sys.exit(run_nodes(lambda: [WholeBodyControllerNode()], "wholebody_controller", args))

@@ -1,0 +1,139 @@
+"""Node parameters (declarative :class:`ParamSpec` lists) and their translation into
+:class:`~wholebody_controller.config.ControllerConfig` (pure, no rclpy).
+
+Per-link parameters are named ``<link>.<name>``; :func:`link_param_specs` makes them for any link
+list, :data:`PARAMS` holds the full list for the default links (documented in
+``docs/wholebody_controller.md``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+from phri_common.params import ParamSpec
+from wholebody_controller.config import (
+    SKIN_LINKS,
+    AdmittanceGains,
+    ControllerConfig,
+    LinkTaskConfig,
+    dance_ranges,
+)
+
+LINKS_PARAM = ParamSpec(
+    "links", list(SKIN_LINKS),
+    "skin links with an interaction task; contact states are read from contacts/<link>",
+    read_only=True, min_length=1,
+)
+
+GLOBAL_PARAMS: list[ParamSpec] = [
+    ParamSpec("rate_hz", 100.0, "control rate (timer and admittance discretisation)", "Hz",
+              1.0, 1000.0, read_only=True),
+    ParamSpec("k_eta", 200.0, "track-force gain k_η of (12)", "N/m", 0.0, 1e5),
+    ParamSpec("b", 4.0, "priority shape b of (15)", "s²/m²", 0.0, 1e6),
+    ParamSpec("k_p", 5.0, "task-space gain K_p of (19)", "1/s", 0.0, 1000.0),
+    ParamSpec("psi_thr", 1e-4, "activation threshold ψ_thr (also the weight floor)", "-",
+              1e-12, 0.5),
+    ParamSpec("epsilon", 0.1, "QP regularisation ε of (23)", "-", 1e-9, 1e6),
+    ParamSpec("horizon", 0.15, "position-limit horizon h of (22)", "s", 1e-3, 10.0),
+    ParamSpec("region_margin", 0.01, "margin around the region locked as Ω_d", "m", 0.0, 1.0),
+    ParamSpec("velocity_limit", 0.15,
+              "|q̇| bound of every joint and base axis (Table II), within the robot's own",
+              "rad/s or m/s", 0.0, 10.0),
+    ParamSpec("q_dance_enabled", False,
+              "hold each arm joint within q_dance ± q_dance_range (waltz, Sec. VI-B)"),
+    ParamSpec("q_dance", [0.0] * 12,
+              "arm configuration q_dance, left then right arm in the command joint order",
+              "rad", -7.0, 7.0, length=12),
+    ParamSpec("q_dance_range", 0.1, "half width of the q_dance joint ranges", "rad", 0.0, 6.3),
+    ParamSpec("solver", "daqp", "QP backend: daqp (exact, default) or osqp (warm-started)"),
+    ParamSpec("contact_timeout", 0.1, "contact state older than this → zero command", "s",
+              1e-3, 10.0),
+    ParamSpec("joint_state_timeout", 0.1, "joint state older than this → zero command", "s",
+              1e-3, 10.0),
+    ParamSpec("odom_timeout", 0.1, "odometry older than this → zero command", "s", 1e-3, 10.0),
+    ParamSpec("world_frame", "odom", "frame_id of the task-state messages", read_only=True),
+]
+
+LINK_SUFFIXES: tuple[str, ...] = (
+    "inertia", "damping", "stiffness", "priority_lock", "desired_force"
+)
+
+
+def link_param_specs(link: str) -> list[ParamSpec]:
+    """The per-link parameters ``<link>.inertia`` … for one link."""
+    return [
+        ParamSpec(f"{link}.inertia", [0.5] * 6, "admittance inertia Λ diagonal (x y z rx ry rz)",
+                  "kg, kg·m²", 1e-6, 1e6, length=6),
+        ParamSpec(f"{link}.damping", [40.0] * 6, "admittance damping D diagonal",
+                  "N·s/m, N·m·s/rad", 0.0, 1e6, length=6),
+        ParamSpec(f"{link}.stiffness", [0.0] * 6, "admittance stiffness K diagonal",
+                  "N/m, N·m/rad", 0.0, 1e6, length=6),
+        ParamSpec(f"{link}.priority_lock", 0.0,
+                  "fixed priority ψ (manual task); 0 = automatic (15)", "-", 0.0, 1.0),
+        ParamSpec(f"{link}.desired_force", [0.0, 0.0, 0.0],
+                  "force the link exerts, base frame (waltz: 0 -10 0 on the left forearm)", "N",
+                  -1000.0, 1000.0, length=3),
+    ]
+
+
+#: All parameters for the default links (the documented set).
+PARAMS: list[ParamSpec] = [
+    LINKS_PARAM, *GLOBAL_PARAMS, *(s for link in SKIN_LINKS for s in link_param_specs(link))
+]
+
+
+def _six(values: Any) -> tuple[float, float, float, float, float, float]:
+    v = [float(x) for x in values]
+    return (v[0], v[1], v[2], v[3], v[4], v[5])
+
+
+def config_from_values(
+    values: Mapping[str, Any], links: Sequence[str], arm_joints: Sequence[str]
+) -> ControllerConfig:
+    """Build the controller configuration from validated parameter values.
+
+    Args:
+        values: parameter values by name (global and per-link).
+        links: the link list.
+        arm_joints: the 12 arm joint names in q_dance order.
+
+    Raises:
+        ValueError: a combination is refused; the message names the parameter.
+    """
+    solver = str(values["solver"])
+    if solver not in ("daqp", "osqp"):
+        raise ValueError(f"parameter 'solver' refused value {solver!r}: allowed daqp, osqp")
+    tasks = []
+    for link in links:
+        lock = float(values[f"{link}.priority_lock"])
+        force = [float(f) for f in values[f"{link}.desired_force"]]
+        tasks.append(
+            LinkTaskConfig(
+                link=link,
+                admittance=AdmittanceGains(
+                    inertia=_six(values[f"{link}.inertia"]),
+                    damping=_six(values[f"{link}.damping"]),
+                    stiffness=_six(values[f"{link}.stiffness"]),
+                ),
+                priority_lock=lock if lock > 0.0 else None,
+                desired_force=(force[0], force[1], force[2]),
+            )
+        )
+    ranges = ()
+    if bool(values["q_dance_enabled"]):
+        ranges = dance_ranges(arm_joints, list(values["q_dance"]), float(values["q_dance_range"]))
+    return ControllerConfig(
+        links=tuple(tasks),
+        k_eta=float(values["k_eta"]),
+        b=float(values["b"]),
+        k_p=float(values["k_p"]),
+        psi_thr=float(values["psi_thr"]),
+        epsilon=float(values["epsilon"]),
+        horizon=float(values["horizon"]),
+        rate_hz=float(values["rate_hz"]),
+        region_margin=float(values["region_margin"]),
+        velocity_limit=float(values["velocity_limit"]),
+        joint_ranges=ranges,
+        solver=solver,
+    )

@@ -1,0 +1,236 @@
+"""The QP (22)–(23): building it is separate from solving it; two solver backends.
+
+Problem (23) with weights Ψ_i = ψ_i I:
+
+    min_u  Σ_i ψ_i ‖J_i u − b_i‖² + ε ‖u‖²
+    s.t.   max(q̇_l, (q_l − q)/h) ≤ u ≤ min(q̇_u, (q_u − q)/h)            (22)
+
+is written as ``min ½ uᵀ H u + gᵀ u`` with ``H = 2(Σ ψ_i J_iᵀ J_i + ε I)`` and
+``g = −2 Σ ψ_i J_iᵀ b_i`` and box bounds only. When a joint is outside its position range (e.g.
+right after q_dance is set) the position bound would demand more than the velocity limit; the
+bounds are then clipped into the velocity box, so the joint returns at the velocity limit and the
+problem is always feasible.
+
+Backends (same interface, :class:`QPSolver`): :class:`DaqpSolver` (exact dual active set,
+default — ≈ 10 µs here) and :class:`OsqpSolver` (the paper's OSQP [26], warm-started, tolerances
+1e-10 so it lands within 1e-6 of the optimum; polishing is off, which also keeps osqp 1.x from
+printing "Polishing not needed"). Both clip the answer into the bounds.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+Array = NDArray[np.float64]
+
+
+class QPError(RuntimeError):
+    """The QP could not be solved (solver status, non-finite data or answer)."""
+
+
+@dataclass(frozen=True)
+class QPProblem:
+    """``min ½ uᵀ H u + gᵀ u`` s.t. ``lower ≤ u ≤ upper``."""
+
+    hessian: Array
+    gradient: Array
+    lower: Array
+    upper: Array
+
+    @property
+    def size(self) -> int:
+        return int(self.gradient.shape[0])
+
+    def objective(self, u: Array) -> float:
+        """½ uᵀ H u + gᵀ u."""
+        return float(0.5 * u @ self.hessian @ u + self.gradient @ u)
+
+
+def velocity_bounds(
+    q: Array,
+    position_lower: Array,
+    position_upper: Array,
+    velocity_lower: Array,
+    velocity_upper: Array,
+    horizon: float,
+) -> tuple[Array, Array]:
+    """Bounds of (23) from (22), clipped into the velocity box so they are always consistent.
+
+    Args:
+        q: current positions [rad] / [m] (only where the position bounds are finite).
+        position_lower, position_upper: q_l, q_u (±inf allowed).
+        velocity_lower, velocity_upper: q̇_l ≤ 0 ≤ q̇_u [rad/s] / [m/s].
+        horizon: h [s].
+    """
+    with np.errstate(invalid="ignore"):
+        lower = np.clip((position_lower - q) / horizon, velocity_lower, velocity_upper)
+        upper = np.clip((position_upper - q) / horizon, velocity_lower, velocity_upper)
+    return lower, upper
+
+
+def build_qp(
+    jacobians: Sequence[Array],
+    targets: Sequence[Array],
+    weights: Sequence[float],
+    epsilon: float,
+    lower: Array,
+    upper: Array,
+) -> QPProblem:
+    """Assemble (23).
+
+    Args:
+        jacobians: J_i (6×n) of each contact centre, in the decision variable's coordinates
+            (blocks may also come pre-stacked: rows are taken in order, 6 per task).
+        targets: b_i (6) desired contact-centre velocities [m/s, rad/s], stacked the same way.
+        weights: ψ_i ≥ 0, one per 6-row task block.
+        epsilon: ε > 0.
+        lower, upper: bounds on u (see :func:`velocity_bounds`).
+
+    Raises:
+        QPError: non-finite data or inconsistent bounds.
+    """
+    n = lower.shape[0]
+    stacked = np.concatenate(jacobians) if len(jacobians) else np.zeros((0, n))
+    rows = np.repeat(np.asarray(weights, dtype=np.float64), 6)
+    if rows.shape[0] != stacked.shape[0]:
+        raise QPError(f"{len(weights)} weights for {stacked.shape[0]} task rows")
+    weighted = stacked.T * rows  # Jᵀ Ψ
+    hessian = 2.0 * (weighted @ stacked)
+    hessian.flat[:: n + 1] += 2.0 * epsilon
+    gradient = -2.0 * (weighted @ np.concatenate(targets)) if len(targets) else np.zeros(n)
+    # One scalar reduction catches NaN/inf anywhere in the data.
+    if not np.isfinite(float(hessian.sum()) + float(gradient.sum())):
+        raise QPError("QP data is not finite")
+    if np.isnan(float(lower.sum()) - float(upper.sum())) or np.any(lower > upper):
+        raise QPError(f"QP bounds are inconsistent: lower {lower}, upper {upper}")
+    return QPProblem(hessian, gradient, lower, upper)
+
+
+def kkt_residual(problem: QPProblem, u: Array) -> float:
+    """Optimality residual of a box QP: ‖u − Π(u − ∇f(u))‖_∞ plus bound violation.
+
+    Zero exactly at the optimum (projected-gradient fixed point); independent of any solver.
+    """
+    grad = problem.hessian @ u + problem.gradient
+    projected = np.clip(u - grad, problem.lower, problem.upper)
+    violation = np.maximum(problem.lower - u, 0.0) + np.maximum(u - problem.upper, 0.0)
+    return float(np.max(np.abs(u - projected)) + np.max(violation))
+
+
+class QPSolver(Protocol):
+    """A QP backend."""
+
+    name: str
+
+    def solve(self, problem: QPProblem) -> Array:
+        """Optimal u within the bounds.
+
+        Raises:
+            QPError: on failure.
+        """
+        ...
+
+
+def _finish(problem: QPProblem, u: Array, name: str) -> Array:
+    if u is None or not np.all(np.isfinite(u)):
+        raise QPError(f"{name} returned a non-finite solution")
+    return np.clip(np.asarray(u, dtype=np.float64), problem.lower, problem.upper)
+
+
+class DaqpSolver:
+    """Exact dual active-set solver (daqp), warm-started with the previous active set."""
+
+    name = "daqp"
+
+    def __init__(self) -> None:
+        import daqp
+
+        self._daqp = daqp
+        self._empty: Array | None = None
+        self._sense: NDArray[np.int32] | None = None
+
+    def solve(self, problem: QPProblem) -> Array:
+        n = problem.size
+        if self._empty is None or self._empty.shape[1] != n:
+            self._empty = np.zeros((0, n))
+            self._sense = np.zeros(n, dtype=np.int32)
+        assert self._sense is not None
+        # daqp reads bounds beyond the rows of A as simple bounds; infinities are allowed.
+        x, _, exitflag, _ = self._daqp.solve(
+            problem.hessian, problem.gradient, self._empty, problem.upper, problem.lower,
+            self._sense.copy(),
+        )
+        if exitflag < 1:
+            raise QPError(f"daqp failed with exit flag {exitflag}")
+        return _finish(problem, x, self.name)
+
+
+class OsqpSolver:
+    """OSQP (ADMM) with warm start and tight tolerances (1e-10 absolute and relative)."""
+
+    name = "osqp"
+
+    def __init__(self, tolerance: float = 1e-10, max_iter: int = 20000) -> None:
+        import osqp
+        import scipy.sparse as sp
+
+        self._osqp = osqp
+        self._sp = sp
+        self._tolerance = tolerance
+        self._max_iter = max_iter
+        self._solver: Any = None
+        self._n = -1
+        self._rows: NDArray[np.intp] | None = None
+        self._cols: NDArray[np.intp] | None = None
+
+    def _setup(self, problem: QPProblem) -> None:
+        sp = self._sp
+        n = problem.size
+        # Full upper-triangular pattern so every later Hessian fits the same sparsity.
+        pattern = sp.csc_matrix(np.triu(np.ones((n, n))))
+        pattern.sort_indices()
+        self._rows = pattern.indices.astype(np.intp)
+        self._cols = np.repeat(np.arange(n), np.diff(pattern.indptr)).astype(np.intp)
+        p = sp.csc_matrix(
+            (problem.hessian[self._rows, self._cols], pattern.indices, pattern.indptr),
+            shape=(n, n),
+        )
+        solver = self._osqp.OSQP()
+        solver.setup(
+            p, problem.gradient, sp.identity(n, format="csc"),
+            problem.lower, problem.upper,
+            verbose=False, eps_abs=self._tolerance, eps_rel=self._tolerance,
+            eps_prim_inf=1e-12, eps_dual_inf=1e-12,
+            polishing=False, warm_starting=True, max_iter=self._max_iter,
+        )
+        self._solver = solver
+        self._n = n
+
+    def solve(self, problem: QPProblem) -> Array:
+        if self._solver is None or self._n != problem.size:
+            self._setup(problem)
+        else:
+            assert self._rows is not None and self._cols is not None
+            self._solver.update(
+                Px=problem.hessian[self._rows, self._cols], q=problem.gradient,
+                l=problem.lower, u=problem.upper,
+            )
+        result = self._solver.solve(raise_error=False)
+        if result.info.status_val != self._osqp.SolverStatus.OSQP_SOLVED:
+            self._solver = None  # start afresh next time
+            raise QPError(f"osqp failed: {result.info.status}")
+        return _finish(problem, result.x, self.name)
+
+
+def make_solver(name: str) -> QPSolver:
+    """The backend called ``name`` (``"daqp"`` or ``"osqp"``)."""
+    if name == "daqp":
+        return DaqpSolver()
+    if name == "osqp":
+        return OsqpSolver()
+    raise ValueError(f"unknown QP solver {name!r}; choose daqp or osqp")
