@@ -1,0 +1,316 @@
+"""ROS 2 bridge: the simulation behind the same topics as the real robot (thin node).
+
+Publishes ``/joint_states``, ``/odom``, ``/clock`` and ``skin/<patch>/taxels``; subscribes
+``/cmd_vel`` and ``<arm>/forward_velocity_controller/commands`` through the simulation's command
+watchdog; publishes ground truth under ``sim/``. Two modes:
+
+* free-running (``lockstep: false``): a wall-clock timer advances the simulation by one control
+  period per tick, ``real_time_factor`` times faster than real time;
+* lock-step (``lockstep: true``): nothing advances by itself; the owner (the in-process
+  :mod:`phri_sim.runner`) calls :meth:`SimBridgeNode.advance` and :meth:`publish_clock`, which
+  makes the whole stack deterministic.
+
+Interface, parameters and ground-truth topics: ``docs/phri_sim.md``.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from typing import Any
+
+import numpy as np
+import rclpy
+from geometry_msgs.msg import (
+    Point,
+    PointStamped,
+    Pose,
+    PoseArray,
+    Quaternion,
+    Twist,
+    Vector3,
+    WrenchStamped,
+)
+from nav_msgs.msg import Odometry
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState, PointCloud2
+from std_msgs.msg import Float64MultiArray, Header
+
+from phri_common.params import ParamSpec, ParamValue
+from phri_common.ros_params import declare_parameters
+from phri_common.stamps import ns_to_stamp
+from phri_common.taxels import TaxelCloudEncoder
+from phri_sim.scenarios import Q_HOME, SCENARIOS, Script
+from phri_sim.sim import ARM_JOINTS, CommandError, SimConfig, Simulation
+from phri_sim.skin import SkinConfig
+
+PARAMS: list[ParamSpec] = [
+    ParamSpec("lockstep", False, "advance only when the owner calls advance() (in-process "
+              "runner); otherwise a wall-clock timer drives the simulation", read_only=True),
+    ParamSpec("scenario", "", "scenario whose person script runs ('' = person parked, robot "
+              "at home): centring, sliding, whole_body, waltz", read_only=True),
+    ParamSpec("seed", 0, "seed of the skin noise (same seed → same run)", low=0,
+              high=2**31 - 1, read_only=True),
+    ParamSpec("control_period", 0.01, "simulated time per advance / timer tick", unit="s",
+              low=0.002, high=0.1, read_only=True),
+    ParamSpec("real_time_factor", 1.0, "free-running speed relative to the wall clock",
+              low=0.01, high=100.0, read_only=True),
+    ParamSpec("skin_rate_hz", 500.0, "taxel-array publication rate (sim time)", unit="Hz",
+              low=1.0, high=500.0, read_only=True),
+    ParamSpec("state_rate_hz", 100.0, "/joint_states, /odom and /clock rate (sim time)",
+              unit="Hz", low=1.0, high=500.0, read_only=True),
+    ParamSpec("ground_truth_rate_hz", 100.0, "ground-truth rate (sim time); 0 = off",
+              unit="Hz", low=0.0, high=500.0, read_only=True),
+    ParamSpec("command_timeout", 0.1, "a command older than this (sim time) reads as zero",
+              unit="s", low=0.001, high=10.0, read_only=True),
+    ParamSpec("skin_noise_std", 0.005, "per-taxel Gaussian noise", unit="N", low=0.0,
+              high=10.0, read_only=True),
+    ParamSpec("skin_softness", 0.004, "thickness of the footprint model's compliant layer",
+              unit="m", low=1e-4, high=0.05, read_only=True),
+    ParamSpec("viewer", False, "open the MuJoCo viewer (needs a display)", read_only=True),
+]
+
+SENSOR_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+ARM_TOPICS = {side: f"{side}/forward_velocity_controller/commands" for side in ARM_JOINTS}
+
+
+def yaw_quaternion(yaw: float) -> Quaternion:
+    """Quaternion of a rotation about z by ``yaw`` [rad]."""
+    return Quaternion(w=math.cos(0.5 * yaw), x=0.0, y=0.0, z=math.sin(0.5 * yaw))
+
+
+def joint_state_msg(names: tuple[str, ...], q: np.ndarray, qd: np.ndarray, stamp_ns: int
+                    ) -> JointState:
+    """JointState of the arm joints (positions [rad], velocities [rad/s])."""
+    return JointState(
+        header=Header(stamp=ns_to_stamp(stamp_ns)),
+        name=list(names),
+        position=[float(x) for x in q],
+        velocity=[float(x) for x in qd],
+    )
+
+
+def odometry_msg(q_base: np.ndarray, twist: np.ndarray, stamp_ns: int) -> Odometry:
+    """Odometry: planar pose (x, y, yaw) in ``odom`` and the body-frame twist of ``base_link``."""
+    msg = Odometry(header=Header(stamp=ns_to_stamp(stamp_ns), frame_id="odom"),
+                   child_frame_id="base_link")
+    msg.pose.pose.position = Point(x=float(q_base[0]), y=float(q_base[1]), z=0.0)
+    msg.pose.pose.orientation = yaw_quaternion(float(q_base[2]))
+    msg.twist.twist.linear = Vector3(x=float(twist[0]), y=float(twist[1]), z=0.0)
+    msg.twist.twist.angular = Vector3(x=0.0, y=0.0, z=float(twist[2]))
+    return msg
+
+
+def twist_to_command(msg: Twist) -> np.ndarray:
+    """/cmd_vel → [v_x, v_y, ω_z] (body frame) [m/s, rad/s]."""
+    return np.array([msg.linear.x, msg.linear.y, msg.angular.z], dtype=np.float64)
+
+
+class SimBridgeNode(Node):
+    """The simulated robot, skins and person behind the hardware topics (module docstring)."""
+
+    def __init__(self, *, node_name: str = "phri_sim", **kwargs: Any) -> None:
+        super().__init__(node_name, **kwargs)
+        self.values: dict[str, ParamValue] = declare_parameters(self, PARAMS)
+        v = self.values
+        scenario_name = str(v["scenario"])
+        if scenario_name and scenario_name not in SCENARIOS:
+            raise ValueError(
+                f"parameter 'scenario' refused value {scenario_name!r}: allowed '' or "
+                f"{', '.join(SCENARIOS)}"
+            )
+        config = SimConfig(
+            skin=SkinConfig(softness=float(v["skin_softness"]),
+                            noise_std=float(v["skin_noise_std"])),
+            command_timeout=float(v["command_timeout"]),
+            seed=int(v["seed"]),
+        )
+        self.sim = Simulation(config)
+        self.scenario = SCENARIOS.get(scenario_name)
+        self.script: Script | None = None
+        self.sim.reset(np.array(self.scenario.q0 if self.scenario else Q_HOME))
+        if self.scenario is not None:
+            self.script = self.scenario.make_script(self.sim)
+            for part, target in self.script(0.0).items():
+                self.sim.set_target(part, target, teleport=True)
+            self.sim.reset(np.array(self.scenario.q0))
+        self.period = float(v["control_period"])
+        self.steps_per_period = max(1, round(self.period / self.sim.dt))
+        self._skin_every = max(1, round(1.0 / (float(v["skin_rate_hz"]) * self.sim.dt)))
+        self._state_every = max(1, round(1.0 / (float(v["state_rate_hz"]) * self.sim.dt)))
+        gt_rate = float(v["ground_truth_rate_hz"])
+        self._truth_every = 0 if gt_rate <= 0 else max(1, round(1.0 / (gt_rate * self.sim.dt)))
+        self.step_count = 0
+        self.commands_received = dict.fromkeys(("base", "left", "right"), 0)
+        self.commands_refused = 0
+
+        self.encoders = {
+            name: TaxelCloudEncoder(p.layout.positions, p.layout.normals, p.layout.link)
+            for name, p in self.sim.patches.items()
+        }
+        self.skin_pubs = {
+            name: self.create_publisher(PointCloud2, f"skin/{name}/taxels", SENSOR_QOS)
+            for name in self.sim.patches
+        }
+        self.joint_pub = self.create_publisher(JointState, "/joint_states", SENSOR_QOS)
+        self.odom_pub = self.create_publisher(Odometry, "/odom", SENSOR_QOS)
+        self.clock_pub = self.create_publisher(Clock, "/clock", 10)
+        self.wrench_pubs = {
+            link: self.create_publisher(WrenchStamped, f"sim/contacts/{link}/wrench", 10)
+            for link in self.sim.skin_links
+        }
+        self.center_pubs = {
+            link: self.create_publisher(PointStamped, f"sim/contacts/{link}/center", 10)
+            for link in self.sim.skin_links
+        }
+        self.person_pub = self.create_publisher(PoseArray, "sim/person/poses", 10)
+        self.create_subscription(Twist, "/cmd_vel", self._on_cmd_vel, 10)
+        for side, topic in ARM_TOPICS.items():
+            self.create_subscription(
+                Float64MultiArray, topic, lambda msg, side=side: self._on_arm(side, msg), 10
+            )
+        self.viewer: Any = None
+        if bool(v["viewer"]):
+            self._open_viewer()
+        self.timer = None
+        if not bool(v["lockstep"]):
+            wall = self.period / float(v["real_time_factor"])
+            self.timer = self.create_timer(wall, self._tick)
+        self.publish_all(clock=True)
+
+    # -- commands -------------------------------------------------------------------------------
+    def _command(self, channel: str, values: np.ndarray) -> None:
+        try:
+            self.sim.command(channel, values)
+            self.commands_received[channel] += 1
+        except CommandError as err:
+            self.commands_refused += 1
+            self.get_logger().warning(f"refused command: {err}; {channel} stopped",
+                                      throttle_duration_sec=1.0)
+
+    def _on_cmd_vel(self, msg: Twist) -> None:
+        self._command("base", twist_to_command(msg))
+
+    def _on_arm(self, side: str, msg: Float64MultiArray) -> None:
+        self._command(side, np.asarray(msg.data, dtype=np.float64))
+
+    # -- stepping -------------------------------------------------------------------------------
+    @property
+    def stamp_ns(self) -> int:
+        """Simulation time [ns] (integer steps × dt, so stamps are exact)."""
+        return round(self.step_count * self.sim.dt * 1e9)
+
+    def advance(self, periods: int = 1, *, clock: bool = True) -> None:
+        """Advance ``periods`` control periods, publishing each topic when it falls due; publish
+        /clock at the end unless ``clock`` is False (lock-step publishes it after the sensors
+        have been consumed)."""
+        for _ in range(periods * self.steps_per_period):
+            if self.script is not None:
+                for part, target in self.script(self.sim.time).items():
+                    self.sim.set_target(part, target)
+            self.sim.step()
+            self.step_count += 1
+            n = self.step_count
+            if n % self._skin_every == 0:
+                self.publish_skin()
+            if self._truth_every and n % self._truth_every == 0:
+                self.publish_ground_truth()
+            if n % self._state_every == 0:
+                self.publish_state()
+        if clock:
+            self.publish_clock()
+        if self.viewer is not None:
+            self.viewer.sync()
+
+    def _tick(self) -> None:
+        self.advance()
+
+    # -- publishing -----------------------------------------------------------------------------
+    def publish_all(self, clock: bool) -> None:
+        """Every topic once at the current state."""
+        self.publish_state()
+        self.publish_skin()
+        self.publish_ground_truth()
+        if clock:
+            self.publish_clock()
+
+    def publish_clock(self) -> None:
+        """/clock at the simulation time."""
+        self.clock_pub.publish(Clock(clock=ns_to_stamp(self.stamp_ns)))
+
+    def publish_state(self) -> None:
+        """/joint_states (12 arm joints) and /odom."""
+        stamp = self.stamp_ns
+        q, qd = self.sim.q, self.sim.qd
+        self.joint_pub.publish(joint_state_msg(self.sim.joint_names[3:], q[3:], qd[3:], stamp))
+        self.odom_pub.publish(odometry_msg(q[:3], self.sim.base_twist(), stamp))
+
+    def publish_skin(self) -> None:
+        """One taxel array per patch (frame = the patch's link)."""
+        stamp = self.stamp_ns
+        for name, forces in self.sim.skin_forces().items():
+            self.skin_pubs[name].publish(self.encoders[name].encode(forces, stamp))
+
+    def publish_ground_truth(self) -> None:
+        """True force on each skin link (link frame; zero when untouched), its centre (only
+        while touched) and the person's poses (odom)."""
+        stamp = ns_to_stamp(self.stamp_ns)
+        for link, gt in self.sim.ground_truth().items():
+            header = Header(stamp=stamp, frame_id=link)
+            msg = WrenchStamped(header=header)
+            f = gt.force_link
+            msg.wrench.force = Vector3(x=float(f[0]), y=float(f[1]), z=float(f[2]))
+            self.wrench_pubs[link].publish(msg)
+            if gt.in_contact:
+                c = gt.center_link
+                self.center_pubs[link].publish(
+                    PointStamped(header=header, point=Point(x=float(c[0]), y=float(c[1]),
+                                                            z=float(c[2])))
+                )
+        poses = PoseArray(header=Header(stamp=stamp, frame_id="odom"))
+        for part in self.sim.parts:
+            pos, quat = self.sim.part_pose(part.name)
+            poses.poses.append(Pose(
+                position=Point(x=float(pos[0]), y=float(pos[1]), z=float(pos[2])),
+                orientation=Quaternion(w=float(quat[0]), x=float(quat[1]), y=float(quat[2]),
+                                       z=float(quat[3])),
+            ))
+        self.person_pub.publish(poses)
+
+    # -- viewer ---------------------------------------------------------------------------------
+    def _open_viewer(self) -> None:
+        import os
+
+        if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+            self.get_logger().warning("viewer requested but no display: running headless")
+            return
+        import mujoco.viewer
+
+        self.viewer = mujoco.viewer.launch_passive(self.sim.model, self.sim.data)
+
+    def destroy_node(self) -> None:
+        """Close the viewer, then tear down."""
+        if self.viewer is not None:
+            self.viewer.close()
+            self.viewer = None
+        super().destroy_node()
+
+
+def main(args: list[str] | None = None) -> None:
+    """Entry point ``phri_sim_bridge``: the free-running simulation until Ctrl-C."""
+    rclpy.init(args=args if args is not None else sys.argv)
+    try:
+        node = SimBridgeNode()
+    except ValueError as err:
+        print(f"phri_sim: {err}", file=sys.stderr)
+        rclpy.try_shutdown()
+        sys.exit(2)
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()

@@ -1,0 +1,183 @@
+"""Per-scenario metrics from a run (pure, no rclpy).
+
+:class:`MetricsRecorder` samples the simulation once per control period (ground truth, robot
+state, the command the servos follow) together with the contact states the estimator published,
+and :meth:`MetricsRecorder.summary` reduces them to the scenario's JSON metrics:
+
+* every scenario: per skin link the share of time touched and peak / mean true normal force
+  while touched; ``limit_violations`` = control periods in which a joint left its position range
+  (joint limits, and for the waltz q_dance ± range, by more than :data:`POSITION_TOLERANCE`) or a
+  servo was told to exceed the velocity limit (Table II, 0.15) by more than 1e-6;
+* ``centring`` / ``tracking``: estimated against true contact centre (link frame, error norm) and
+  force (magnitude error), over samples where both say "touched" and the touch is older than
+  :data:`SETTLE_TIME`;
+* ``waltz``: the person's torso path against the robot's base path (planar displacements from
+  their starts): RMS error, the lag that best aligns them and the RMS error at that lag; the share
+  of time the waist touches the left forearm (from the first touch on); peak / mean waist force.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from phri_common.contact import ContactState
+from phri_sim.sim import Simulation
+
+FloatArray = NDArray[np.float64]
+
+POSITION_TOLERANCE = 0.01
+"""Slack on position ranges for servo tracking error [rad]."""
+VELOCITY_TOLERANCE = 1e-6
+SETTLE_TIME = 0.3
+"""Samples this soon after a touch begins are not scored (filter and footprint build-up) [s]."""
+WALTZ_LINK = "left_forearm_link"
+
+
+@dataclass
+class _LinkSeries:
+    touched: list[bool] = field(default_factory=list)
+    normal_force: list[float] = field(default_factory=list)
+    center_error: list[float] = field(default_factory=list)
+    force_error: list[float] = field(default_factory=list)
+    touch_start: float = -math.inf
+
+
+class MetricsRecorder:
+    """Collects one sample per control period (module docstring)."""
+
+    def __init__(self, kind: str, velocity_limit: float = 0.15,
+                 position_ranges: FloatArray | None = None) -> None:
+        self.kind = kind
+        self.velocity_limit = velocity_limit
+        self.position_ranges = position_ranges
+        self.times: list[float] = []
+        self.links: dict[str, _LinkSeries] = {}
+        self.base_path: list[FloatArray] = []
+        self.torso_path: list[FloatArray] = []
+        self.violations = 0
+        self.violation_kinds: dict[str, int] = {"position": 0, "velocity": 0}
+        self.max_command = 0.0
+
+    def sample(self, sim: Simulation, command: FloatArray,
+               estimates: Mapping[str, ContactState]) -> None:
+        """Record the current state; ``command`` = the 15 velocities sent (before clipping)."""
+        t = sim.time
+        self.times.append(t)
+        q = sim.q
+        lower, upper = sim.position_limits[:, 0], sim.position_limits[:, 1]
+        if self.position_ranges is not None:
+            lower = np.maximum(lower, self.position_ranges[:, 0])
+            upper = np.minimum(upper, self.position_ranges[:, 1])
+        bad_pos = bool(np.any(q < lower - POSITION_TOLERANCE) or
+                       np.any(q > upper + POSITION_TOLERANCE))
+        peak = float(np.max(np.abs(command))) if command.size else 0.0
+        self.max_command = max(self.max_command, peak)
+        bad_vel = peak > self.velocity_limit + VELOCITY_TOLERANCE
+        if bad_pos or bad_vel:
+            self.violations += 1
+            self.violation_kinds["position"] += int(bad_pos)
+            self.violation_kinds["velocity"] += int(bad_vel)
+        for link, gt in sim.ground_truth().items():
+            series = self.links.setdefault(link, _LinkSeries())
+            touched = gt.in_contact and gt.normal_force > 0.0
+            if touched and not (series.touched and series.touched[-1]):
+                series.touch_start = t
+            series.touched.append(touched)
+            series.normal_force.append(gt.normal_force)
+            est = estimates.get(link)
+            if touched and est is not None and est.in_contact and (
+                t - series.touch_start >= SETTLE_TIME
+            ):
+                series.center_error.append(float(np.linalg.norm(est.center - gt.center_link)))
+                series.force_error.append(
+                    abs(float(np.linalg.norm(est.force)) - float(np.linalg.norm(gt.force_link)))
+                )
+        self.base_path.append(q[:2].copy())
+        torso = next((p.name for p in sim.parts if p.name == "person_torso"), None)
+        if torso is not None:
+            self.torso_path.append(sim.part_pose(torso)[0][:2])
+
+    # -- reduction ------------------------------------------------------------------------------
+    def _link_summary(self, series: _LinkSeries) -> dict[str, Any]:
+        touched = np.array(series.touched, dtype=bool)
+        force = np.array(series.normal_force)
+        out: dict[str, Any] = {
+            "touched_share": float(touched.mean()) if touched.size else 0.0,
+            "peak_force": float(force.max()) if force.size else 0.0,
+            "mean_force_touched": float(force[touched].mean()) if touched.any() else 0.0,
+        }
+        if self.kind in ("centring", "tracking"):
+            ce, fe = np.array(series.center_error), np.array(series.force_error)
+            out["scored_samples"] = int(ce.size)
+            if ce.size:
+                out["center_error_mean"] = float(ce.mean())
+                out["center_error_max"] = float(ce.max())
+                out["force_error_mean"] = float(fe.mean())
+                out["force_error_max"] = float(fe.max())
+        return out
+
+    def summary(self) -> dict[str, Any]:
+        """The metrics as a JSON-ready dict."""
+        out: dict[str, Any] = {
+            "samples": len(self.times),
+            "sim_time": self.times[-1] if self.times else 0.0,
+            "limit_violations": self.violations,
+            "violations_by_kind": dict(self.violation_kinds),
+            "max_command": self.max_command,
+            "links": {link: self._link_summary(s) for link, s in self.links.items()},
+        }
+        if self.kind == "waltz":
+            out["waltz"] = self._waltz_summary()
+        return out
+
+    def _waltz_summary(self) -> dict[str, Any]:
+        series = self.links.get(WALTZ_LINK, _LinkSeries())
+        touched = np.array(series.touched, dtype=bool)
+        first = int(np.argmax(touched)) if touched.any() else len(touched)
+        held = touched[first:]
+        force = np.array(series.normal_force)[first:]
+        base = np.array(self.base_path)
+        torso = np.array(self.torso_path)
+        result: dict[str, Any] = {
+            "contact_held_share": float(held.mean()) if held.size else 0.0,
+            "peak_force": float(force.max()) if force.size else 0.0,
+            "mean_force": float(force[held].mean()) if held.any() else 0.0,
+        }
+        if base.shape[0] >= 2 and torso.shape == base.shape:
+            b = base - base[0]
+            p = torso - torso[0]
+            rms, lag, rms_lag = path_errors(np.array(self.times), p, b)
+            result.update({
+                "path_rms_error": rms,
+                "path_lag": lag,
+                "path_rms_error_at_lag": rms_lag,
+                "torso_travel": float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1))),
+                "base_travel": float(np.sum(np.linalg.norm(np.diff(b, axis=0), axis=1))),
+            })
+        return result
+
+
+def path_errors(times: FloatArray, leader: FloatArray, follower: FloatArray,
+                max_lag: float = 5.0) -> tuple[float, float, float]:
+    """(RMS ‖leader − follower‖ [m], lag [s] minimising the RMS of leader(t) − follower(t + lag),
+    that minimum RMS [m]) for equally sampled planar paths."""
+    err = np.linalg.norm(leader - follower, axis=1)
+    rms = float(np.sqrt(np.mean(err**2)))
+    if times.size < 2:
+        return rms, 0.0, rms
+    dt = float(times[1] - times[0])
+    best_lag, best = 0.0, rms
+    for k in range(1, int(max_lag / dt) + 1):
+        if k >= leader.shape[0] - 1:
+            break
+        e = np.linalg.norm(leader[:-k] - follower[k:], axis=1)
+        r = float(np.sqrt(np.mean(e**2)))
+        if r < best:
+            best, best_lag = r, k * dt
+    return rms, best_lag, best

@@ -1,0 +1,139 @@
+"""The simulated person: compliant body parts held by spring–dampers to scripted targets (pure).
+
+Each body part is a free rigid body in the MuJoCo scene (gravity compensated, as a person holds
+their own weight). Every physics step it receives the wrench of a 6-D spring–damper pulling it
+towards its scripted target pose::
+
+    F = K_lin (p_target − p) + D_lin (v_target − v)                 [N]
+    τ = K_rot log(R_target Rᵀ)^∨ + D_rot (0 − ω)                   [N·m]
+
+so the force the part exerts on the robot comes from contact physics: a hand whose target lies
+δ inside a link presses with ≈ K_lin·δ while the link stands still, and the force falls as the
+robot yields (moves away from the target).
+
+Parts (names are the MuJoCo body names; geoms are ``<part>`` and, for the torso, ``person_waist``
+and ``person_chest``):
+
+* ``person_torso``: the dancer's torso; a capsule waist (what the robot's left forearm holds in
+  the waltz) below a wider chest capsule.
+* ``person_left_hand``, ``person_right_hand``: spheres that press and slide on the skin.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+
+PartShape = Literal["sphere", "capsule"]
+
+
+@dataclass(frozen=True)
+class GeomSpec:
+    """One geom of a body part, in the part's body frame.
+
+    Attributes:
+        name: MuJoCo geom name.
+        shape: ``sphere`` (size = (radius,)) or ``capsule`` (size = (radius, half length), along
+            the body z axis).
+        size: see ``shape`` [m].
+        pos: centre in the body frame [m].
+        rgba: display colour.
+    """
+
+    name: str
+    shape: PartShape
+    size: tuple[float, ...]
+    pos: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rgba: tuple[float, float, float, float] = (0.85, 0.65, 0.55, 1.0)
+
+
+@dataclass(frozen=True)
+class BodyPartSpec:
+    """A compliant body part of the person.
+
+    Attributes:
+        name: MuJoCo body name.
+        geoms: its collision geometry.
+        mass: [kg].
+        stiffness: translational spring K_lin [N/m].
+        damping: translational damper D_lin [N·s/m].
+        rot_stiffness: rotational spring K_rot [N·m/rad].
+        rot_damping: rotational damper D_rot [N·m·s/rad].
+        parking: where the part waits when a scenario does not use it (world) [m].
+    """
+
+    name: str
+    geoms: tuple[GeomSpec, ...]
+    mass: float
+    stiffness: float
+    damping: float
+    rot_stiffness: float
+    rot_damping: float
+    parking: tuple[float, float, float]
+
+
+HAND_RADIUS = 0.045
+"""Radius of a hand (palm-sized sphere) [m]."""
+WAIST_RADIUS = 0.13
+"""Radius of the waist capsule [m]."""
+WAIST_HEIGHT = 1.00
+"""Height of the waist centre above the floor when the torso stands at its target [m]."""
+
+TORSO = BodyPartSpec(
+    name="person_torso",
+    geoms=(
+        GeomSpec("person_waist", "capsule", (WAIST_RADIUS, 0.10), (0.0, 0.0, 0.0)),
+        GeomSpec("person_chest", "capsule", (0.16, 0.12), (0.0, 0.0, 0.42),
+                 (0.35, 0.45, 0.70, 1.0)),
+    ),
+    mass=30.0,
+    stiffness=600.0,
+    damping=2.0 * math.sqrt(600.0 * 30.0),
+    rot_stiffness=400.0,
+    rot_damping=80.0,
+    parking=(3.0, -3.0, WAIST_HEIGHT),
+)
+LEFT_HAND = BodyPartSpec(
+    name="person_left_hand",
+    geoms=(GeomSpec("person_left_hand", "sphere", (HAND_RADIUS,)),),
+    mass=0.5,
+    stiffness=400.0,
+    damping=2.0 * math.sqrt(400.0 * 0.5),
+    rot_stiffness=1.0,
+    rot_damping=0.05,
+    parking=(3.0, 1.0, 1.0),
+)
+RIGHT_HAND = BodyPartSpec(
+    name="person_right_hand",
+    geoms=(GeomSpec("person_right_hand", "sphere", (HAND_RADIUS,)),),
+    mass=0.5,
+    stiffness=400.0,
+    damping=2.0 * math.sqrt(400.0 * 0.5),
+    rot_stiffness=1.0,
+    rot_damping=0.05,
+    parking=(3.0, -1.0, 1.0),
+)
+PERSON_PARTS: tuple[BodyPartSpec, ...] = (TORSO, LEFT_HAND, RIGHT_HAND)
+"""The person's parts, in the order used by the ground-truth pose array."""
+
+
+@dataclass(frozen=True)
+class PartTarget:
+    """Scripted target of one part at one instant (world frame).
+
+    Attributes:
+        position: target position [m].
+        velocity: target velocity [m/s] (feeds the damper so a moving target is tracked
+            without lag).
+        yaw: target heading about world z [rad] (parts stay upright).
+    """
+
+    position: FloatArray
+    velocity: FloatArray
+    yaw: float = 0.0

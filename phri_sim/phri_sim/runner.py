@@ -1,0 +1,310 @@
+"""In-process scenario runner: bridge + contact estimation + controller on one executor, lock-step.
+
+:func:`run_scenario` builds, in one process and one rclpy context, the simulation bridge
+(:class:`~phri_sim.bridge.SimBridgeNode`, ``lockstep: true``), the real
+:class:`contact_estimation.node.ContactEstimationNode` and the real
+:class:`wholebody_controller.node.WholeBodyControllerNode` (or, with ``controller="stub"``, a
+stub that publishes zero commands), all with their parameters as ``parameter_overrides`` (the
+scenario's paper values, :mod:`phri_sim.scenarios`) and ``use_sim_time``. Each control period:
+
+1. the bridge advances the physics one period and publishes joint states, odometry, the skins
+   and the ground truth, stamped with the simulation time;
+2. the executor spins until the controller holds this period's contact states (same stamp), joint
+   state and odometry;
+3. the bridge publishes ``/clock``; the controller's sim-time timer fires and its three commands
+   reach the bridge, which applies them during the next period.
+
+Nothing depends on the wall clock, so a run is deterministic for a seed. A caller can add nodes
+(``recorder``: a factory called with the context, e.g. one that subscribes every topic for an
+MCAP recording) and follow progress (``progress(sim_time, duration)`` once per simulated second).
+
+Command line: ``python -m phri_sim.runner waltz [--short] [--seed N] [--out metrics.json]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import math
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import rclpy
+from rclpy.context import Context
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import PointCloud2
+from std_msgs.msg import Float64MultiArray
+
+from phri_common.contact import ContactMessageError, ContactState, msg_to_contact
+from phri_sim.bridge import SimBridgeNode
+from phri_sim.metrics import MetricsRecorder
+from phri_sim.scenarios import SCENARIOS, SKIN_LINKS
+
+Recorder = Callable[[Context], Node]
+Progress = Callable[[float, float], None]
+
+SYNC_TIMEOUT = 5.0
+"""Wall time [s] a lock-step phase may wait for messages before the run is declared stuck."""
+RUNNER_INPUT_TIMEOUT = 2.0
+"""Input timeouts [s] given to the controller in lock-step: its staleness check uses the wall
+clock, which a loaded machine must not trip (the bridge's sim-time watchdog still applies)."""
+SKIN_RATE_HZ = 100.0
+"""Default taxel rate in lock-step runs: one frame per control period (the controller uses only
+the newest frame); the bridge's own default, used when free-running, is the paper's 500 Hz."""
+
+
+class LockStepError(RuntimeError):
+    """A lock-step phase did not complete (a node stopped answering)."""
+
+
+class ZeroCommandStub(Node):
+    """Stand-in controller: publishes zero commands on every sim-time tick (100 Hz)."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__("wholebody_controller", **kwargs)
+        from geometry_msgs.msg import Twist
+
+        self.cmd_pub = self.create_publisher(Twist, "/cmd_vel", 10)
+        self.arm_pubs = [
+            self.create_publisher(Float64MultiArray, f"{side}/forward_velocity_controller/commands",
+                                  10)
+            for side in ("left", "right")
+        ]
+        self._twist = Twist
+        self.timer = self.create_timer(0.01, self.tick)
+
+    def tick(self) -> None:
+        self.cmd_pub.publish(self._twist())
+        for pub in self.arm_pubs:
+            pub.publish(Float64MultiArray(data=[0.0] * 6))
+
+
+def _params(values: dict[str, Any]) -> list[Parameter]:
+    return [Parameter(name, value=value) for name, value in values.items()]
+
+
+class ScenarioRun:
+    """One lock-step run of a scenario through the real nodes (module docstring)."""
+
+    def __init__(
+        self,
+        name: str,
+        *,
+        context: Context,
+        duration: float | None = None,
+        short: bool = False,
+        seed: int = 0,
+        skin_rate_hz: float = SKIN_RATE_HZ,
+        controller: str = "node",
+        viewer: bool = False,
+        recorder: Recorder | None = None,
+        progress: Progress | None = None,
+    ) -> None:
+        if name not in SCENARIOS:
+            raise ValueError(f"unknown scenario {name!r}; known: {', '.join(SCENARIOS)}")
+        self.scenario = sc = SCENARIOS[name]
+        self.duration = duration if duration is not None else (
+            sc.short_duration if short else sc.duration
+        )
+        self.context = context
+        self.progress = progress
+        sim_time = Parameter("use_sim_time", value=True)
+        self.bridge = SimBridgeNode(context=context, parameter_overrides=[
+            Parameter("lockstep", value=True), Parameter("scenario", value=name),
+            Parameter("seed", value=seed), Parameter("skin_rate_hz", value=skin_rate_hz),
+            Parameter("viewer", value=viewer),
+        ])
+        from contact_estimation.node import ContactEstimationNode
+
+        self.estimation = ContactEstimationNode(context=context, parameter_overrides=[
+            sim_time, Parameter("publish_markers", value=False),
+            *_params(sc.estimation_parameters),
+        ])
+        controller_params = {
+            **sc.controller_parameters,
+            "contact_timeout": RUNNER_INPUT_TIMEOUT,
+            "joint_state_timeout": RUNNER_INPUT_TIMEOUT,
+            "odom_timeout": RUNNER_INPUT_TIMEOUT,
+        }
+        self.controller: Node
+        if controller == "node":
+            from wholebody_controller.node import WholeBodyControllerNode
+
+            self.controller = WholeBodyControllerNode(
+                context=context, parameter_overrides=[sim_time, *_params(controller_params)]
+            )
+        elif controller == "stub":
+            self.controller = ZeroCommandStub(context=context, parameter_overrides=[sim_time])
+        else:
+            raise ValueError(f"controller must be 'node' or 'stub', got {controller!r}")
+        self.is_stub = controller == "stub"
+        self.probe = Node("phri_sim_runner", context=context)
+        self.estimates: dict[str, ContactState] = {}
+        for link in SKIN_LINKS:
+            self.probe.create_subscription(
+                PointCloud2, f"contacts/{link}",
+                lambda msg, link=link: self._on_estimate(link, msg), 10,
+            )
+        self.extra: list[Node] = [recorder(context)] if recorder is not None else []
+        from rclpy.experimental.events_executor import EventsExecutor
+
+        self.executor = EventsExecutor(context=context)
+        for node in (self.bridge, self.estimation, self.controller, self.probe, *self.extra):
+            self.executor.add_node(node)
+        ranges = None
+        if sc.controller_parameters.get("q_dance_enabled"):
+            q = np.array(sc.controller_parameters["q_dance"], dtype=np.float64)
+            r = float(sc.controller_parameters["q_dance_range"])
+            ranges = np.full((15, 2), [-np.inf, np.inf])
+            ranges[3:, 0], ranges[3:, 1] = q - r, q + r
+        self.metrics = MetricsRecorder(
+            sc.metrics, float(sc.controller_parameters.get("velocity_limit", 0.15)), ranges
+        )
+        self._last_command = np.zeros(15)
+        self.wall_time = 0.0
+
+    def _on_estimate(self, link: str, msg: PointCloud2) -> None:
+        with contextlib.suppress(ContactMessageError):
+            self.estimates[link] = msg_to_contact(msg)
+
+    # -- lock-step phases -----------------------------------------------------------------------
+    def _spin_until(self, condition: Callable[[], bool], what: str) -> None:
+        deadline = time.monotonic() + SYNC_TIMEOUT
+        while not condition():
+            if time.monotonic() > deadline:
+                raise LockStepError(f"lock-step: timed out waiting for {what} at sim time "
+                                    f"{self.bridge.sim.time:.3f} s")
+            self.executor.spin_once(timeout_sec=0.05)
+
+    def _inputs_ready(self, stamp_ns: int, marks: tuple[Any, ...]) -> bool:
+        """The controller holds this period's contacts, joint state and odometry."""
+        if any(e.stamp_ns != stamp_ns for e in
+               (self.estimates.get(link) for link in SKIN_LINKS) if e is not None) or len(
+                   self.estimates) < len(SKIN_LINKS):
+            return False
+        ctrl = self.controller
+        contacts = getattr(ctrl, "contacts", None)
+        if contacts is not None and any(
+            link not in contacts or contacts[link].stamp_ns != stamp_ns for link in SKIN_LINKS
+        ):
+            return False
+        if hasattr(ctrl, "odom_time") and hasattr(ctrl, "arm_time"):
+            return bool(ctrl.odom_time != marks[0] and np.min(ctrl.arm_time) != marks[1])
+        return True
+
+    def _marks(self) -> tuple[Any, ...]:
+        ctrl = self.controller
+        return (getattr(ctrl, "odom_time", None), float(np.min(getattr(ctrl, "arm_time", [0.0]))))
+
+    def step(self) -> None:
+        """One control period (module docstring)."""
+        bridge = self.bridge
+        marks = self._marks()
+        bridge.advance(1, clock=False)
+        stamp = bridge.stamp_ns
+        self._spin_until(lambda: self._inputs_ready(stamp, marks), "sensor data")
+        before = dict(bridge.commands_received)
+        bridge.publish_clock()
+        self._spin_until(
+            lambda: all(bridge.commands_received[k] > before[k] for k in before),
+            "controller commands",
+        )
+        wd = bridge.sim.watchdog
+        t = bridge.sim.time
+        self._last_command = np.concatenate([wd.current(k, t) for k in ("base", "left", "right")])
+        self.metrics.sample(bridge.sim, self._last_command, self.estimates)
+
+    def run(self) -> dict[str, Any]:
+        """Run to the end; return the metrics (also the run's settings and timing)."""
+        periods = round(self.duration / self.bridge.period)
+        # Let discovery settle and the nodes see the initial state before the first tick.
+        self._spin_until(lambda: all(
+            self.bridge.count_subscribers(f"skin/{p}/taxels") > 0 for p in self.bridge.sim.patches
+        ) and self.bridge.count_subscribers("/clock") > 0, "discovery")
+        start = time.perf_counter()
+        next_report = 1.0
+        for _ in range(periods):
+            self.step()
+            if self.progress is not None and self.bridge.sim.time >= next_report - 1e-9:
+                self.progress(self.bridge.sim.time, self.duration)
+                next_report += 1.0
+        self.wall_time = time.perf_counter() - start
+        summary = self.metrics.summary()
+        summary.update({
+            "scenario": self.scenario.name,
+            "duration": self.duration,
+            "wall_time": self.wall_time,
+            "real_time_factor": self.bridge.sim.time / max(self.wall_time, 1e-9),
+            "controller": "stub (zero commands)" if self.is_stub else "wholebody_controller",
+            "commands_refused": self.bridge.commands_refused,
+        })
+        return summary
+
+    def close(self) -> None:
+        """Destroy every node (the controller sends its final zero command) and the executor."""
+        for node in (*self.extra, self.probe, self.controller, self.estimation, self.bridge):
+            node.destroy_node()
+        self.executor.shutdown()
+
+
+def run_scenario(
+    name: str,
+    *,
+    context: Context | None = None,
+    output: str | Path | None = None,
+    **options: Any,
+) -> dict[str, Any]:
+    """Run scenario ``name`` (options: see :class:`ScenarioRun`) and return its metrics; write them
+    as JSON to ``output`` if given. Creates (and shuts down) its own context unless one is given.
+    """
+    own = context is None
+    if own:
+        context = Context()
+        rclpy.init(context=context)
+    assert context is not None
+    run = ScenarioRun(name, context=context, **options)
+    try:
+        metrics = run.run()
+    finally:
+        run.close()
+        if own:
+            context.try_shutdown()
+    if output is not None:
+        Path(output).write_text(json.dumps(metrics, indent=2, allow_nan=True) + "\n",
+                                encoding="utf-8")
+    return metrics
+
+
+def main(argv: list[str] | None = None) -> None:
+    """``python -m phri_sim.runner SCENARIO``: run one scenario headless and print its metrics."""
+    parser = argparse.ArgumentParser(description=main.__doc__)
+    parser.add_argument("scenario", choices=sorted(SCENARIOS))
+    parser.add_argument("--short", action="store_true", help="the shortened CI length")
+    parser.add_argument("--duration", type=float, default=None, help="length [s]")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--skin-rate", type=float, default=SKIN_RATE_HZ, help="taxel rate [Hz]")
+    parser.add_argument("--stub", action="store_true", help="zero-command stub controller")
+    parser.add_argument("--viewer", action="store_true", help="MuJoCo viewer (needs a display)")
+    parser.add_argument("--out", default=None, help="metrics JSON path")
+    args = parser.parse_args(argv)
+
+    def report(t: float, total: float) -> None:
+        if math.isclose(t % 10.0, 0.0, abs_tol=1e-6) or t >= total - 1e-9:
+            print(f"  t = {t:5.1f} / {total:.1f} s", file=sys.stderr)
+
+    metrics = run_scenario(
+        args.scenario, output=args.out, duration=args.duration, short=args.short,
+        seed=args.seed, skin_rate_hz=args.skin_rate,
+        controller="stub" if args.stub else "node", viewer=args.viewer, progress=report,
+    )
+    print(json.dumps(metrics, indent=2))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,172 @@
+"""Simulated skin: taxel grids on the link surfaces and per-taxel normal forces (pure, no rclpy).
+
+Taxel grids come from :func:`skin_driver.layout.cylindrical_patch` with the description's patch
+geometry (:func:`layout_for_patch`), so the simulated skin and skin_driver agree on taxel order,
+positions and normals.
+
+Footprint model. MuJoCo reports a contact between a person geom and a link as one or a few
+points, which would light single taxels (design §5). The skin and the tissue under it are instead
+modelled as a thin elastic (Winkler) layer of thickness ``h`` (:attr:`SkinConfig.softness`): a
+taxel at signed distance ``d_j`` from the person geom's surface (negative inside) is compressed by
+``e_j = max(0, h − d_j)``, and its share of the contact's normal force is proportional to that
+compression::
+
+    f_j = F_n · e_j / Σ_k e_k
+
+where ``F_n`` is the physical normal force MuJoCo computed between that geom and the link. So the
+taxels' total equals the contact force exactly (before noise), the pressure is highest where the
+person sinks in deepest, and even a tangent sphere lights a disc of radius ≈ √(2 R_eff h)
+(R_eff = R_person R_link / (R_person + R_link)), i.e. several taxels at 7.5 mm pitch.
+
+Sensor model: additive Gaussian noise of standard deviation ``noise_std`` per taxel and sample,
+then clipped at 0 (the convention: ``force`` ≥ 0 presses on the taxel).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from phri_description.description import CylindricalPatch
+from skin_driver.layout import SkinLayout, cylindrical_patch
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class SkinConfig:
+    """Skin sensor model.
+
+    Attributes:
+        softness: thickness h of the compliant layer of the footprint model [m].
+        noise_std: per-taxel Gaussian noise [N] (0 = noiseless).
+    """
+
+    softness: float = 0.004
+    noise_std: float = 0.005
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.softness) and self.softness > 0.0):
+            raise ValueError(f"skin softness must be a positive length [m], got {self.softness}")
+        if not (np.isfinite(self.noise_std) and self.noise_std >= 0.0):
+            raise ValueError(f"skin noise_std must be ≥ 0 [N], got {self.noise_std}")
+
+
+def layout_for_patch(patch: CylindricalPatch) -> SkinLayout:
+    """The taxel layout of a description patch, from skin_driver's generator (same order)."""
+    return cylindrical_patch(
+        patch.name,
+        patch.link,
+        patch.radius,
+        patch.axial_range,
+        angle_range=patch.angular_range,
+        axis_point=patch.point,
+        axis=patch.axis,
+        reference=patch.zero_direction,
+    )
+
+
+@dataclass(frozen=True)
+class SphereShape:
+    """A sphere (world frame): centre [m], radius [m]."""
+
+    center: FloatArray
+    radius: float
+
+    def signed_distance(self, points: FloatArray) -> FloatArray:
+        """Signed distance [m] of (N, 3) points to the surface (negative inside)."""
+        return np.asarray(np.linalg.norm(points - self.center, axis=1) - self.radius)
+
+
+@dataclass(frozen=True)
+class CapsuleShape:
+    """A capsule (world frame): segment end points ``a``, ``b`` [m] and radius [m]."""
+
+    a: FloatArray
+    b: FloatArray
+    radius: float
+
+    def signed_distance(self, points: FloatArray) -> FloatArray:
+        """Signed distance [m] of (N, 3) points to the surface (negative inside)."""
+        ab = self.b - self.a
+        denom = float(ab @ ab)
+        t = np.zeros(points.shape[0]) if denom <= 0.0 else np.clip(
+            (points - self.a) @ ab / denom, 0.0, 1.0
+        )
+        closest = self.a + t[:, None] * ab
+        return np.asarray(np.linalg.norm(points - closest, axis=1) - self.radius)
+
+
+Shape = SphereShape | CapsuleShape
+
+
+def footprint_weights(taxels_world: FloatArray, shape: Shape, softness: float) -> FloatArray:
+    """Compression e_j = max(0, h − d_j) [m] of every taxel under ``shape`` (module docstring)."""
+    return np.maximum(softness - shape.signed_distance(taxels_world), 0.0)
+
+
+def distribute(total: float, weights: FloatArray) -> FloatArray:
+    """Split a normal force ``total`` [N] over taxels in proportion to ``weights``.
+
+    Returns zeros when no taxel is compressed (the contact is off the skin).
+    """
+    s = float(weights.sum())
+    if total <= 0.0 or s <= 0.0:
+        return np.zeros_like(weights)
+    return np.asarray(weights * (total / s))
+
+
+class SkinPatchModel:
+    """One patch's taxels and their forces from a list of (shape, normal force) contacts."""
+
+    def __init__(self, layout: SkinLayout, config: SkinConfig | None = None) -> None:
+        self.layout = layout
+        self.config = config or SkinConfig()
+        self.positions = layout.positions
+        self.normals = layout.normals
+        self.size = layout.size
+        # Cheap reject: a contact farther than this from the patch centre cannot touch a taxel.
+        centre = self.positions.mean(axis=0)
+        self._centre = centre
+        self._reach = float(np.max(np.linalg.norm(self.positions - centre, axis=1)))
+
+    def taxels_in_world(self, rotation: FloatArray, position: FloatArray) -> FloatArray:
+        """(N, 3) taxel centres in the world for the link pose (⁰R_i, ⁰p_i) [m]."""
+        return np.asarray(self.positions @ rotation.T + position)
+
+    def forces(
+        self,
+        rotation: FloatArray,
+        position: FloatArray,
+        contacts: Iterable[tuple[Shape, float]],
+    ) -> FloatArray:
+        """Noise-free per-taxel normal forces [N] for the link pose and the touching shapes.
+
+        Args:
+            rotation, position: link pose in the world.
+            contacts: (person geom shape, normal force [N] between it and this link).
+        """
+        out = np.zeros(self.size)
+        world: FloatArray | None = None
+        for shape, normal_force in contacts:
+            if normal_force <= 0.0:
+                continue
+            if world is None:
+                world = self.taxels_in_world(rotation, position)
+            out += distribute(normal_force, footprint_weights(world, shape, self.config.softness))
+        return out
+
+    def add_noise(self, forces: FloatArray, rng: np.random.Generator) -> FloatArray:
+        """Sensor noise (module docstring); returns a new array, clipped at 0."""
+        if self.config.noise_std <= 0.0:
+            return forces.copy()
+        noisy = forces + rng.normal(0.0, self.config.noise_std, self.size)
+        return np.asarray(np.maximum(noisy, 0.0))
+
+
+def patch_layouts(patches: Sequence[CylindricalPatch]) -> dict[str, SkinLayout]:
+    """Layouts of several patches by patch name."""
+    return {p.name: layout_for_patch(p) for p in patches}
