@@ -19,17 +19,28 @@ import numpy as np
 
 from contact_estimation.estimator import ContactEstimator, EstimatorConfig
 from phri_common.taxels import TaxelCloudEncoder, msg_to_taxels
+from skin_driver.layout import TAXEL_PITCH, cylindrical_patch
 
 
 def cylinder_patch(n: int, radius: float = 0.06) -> tuple[np.ndarray, np.ndarray]:
-    """n taxels on a cylinder along x (7.5 mm pitch), outward normals."""
-    rows = max(1, int(round(2 * np.pi * radius / 0.0075)))
-    cols = int(np.ceil(n / rows))
-    ang = np.repeat(np.arange(rows) * 2 * np.pi / rows, cols)[:n]
-    x = np.tile(np.arange(cols) * 0.0075, rows)[:n]
-    normals = np.stack([np.zeros(n), np.cos(ang), np.sin(ang)], axis=1)
-    positions = np.stack([x, radius * normals[:, 1], radius * normals[:, 2]], axis=1)
-    return positions, normals
+    """About n taxels (7.5 mm pitch) on a cylinder along x, from skin_driver's layout generator.
+
+    One layout holds at most 16,384 taxels (the wire protocol's limit), so larger benches join
+    several layouts end to end along the axis.
+    """
+    per_ring = int(2 * np.pi * radius / TAXEL_PITCH)
+    rings = max(1, int(np.ceil(n / per_ring)))
+    positions, normals = [], []
+    for first in range(0, rings, 100):
+        count = min(100, rings - first)
+        start = first * TAXEL_PITCH
+        layout = cylindrical_patch(
+            "bench", "link", radius, (start, start + count * TAXEL_PITCH + 1e-9),
+            axis=(1.0, 0.0, 0.0),
+        )
+        positions.append(layout.positions)
+        normals.append(layout.normals)
+    return np.concatenate(positions)[:n], np.concatenate(normals)[:n]
 
 
 def pressed_forces(n: int, fraction: float, rng: np.random.Generator) -> np.ndarray:

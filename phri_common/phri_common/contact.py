@@ -99,7 +99,7 @@ def contact_to_msg(state: ContactState) -> PointCloud2:
         state.taxel_count,
         1 if state.in_contact else 0,
     )
-    return PointCloud2(
+    msg = PointCloud2(
         header=Header(stamp=ns_to_stamp(state.stamp_ns), frame_id=state.link),
         height=1,
         width=1,
@@ -107,9 +107,10 @@ def contact_to_msg(state: ContactState) -> PointCloud2:
         is_bigendian=False,
         point_step=_DTYPE.itemsize,
         row_step=_DTYPE.itemsize,
-        data=data,
         is_dense=True,
     )
+    msg.data = data
+    return msg
 
 
 def msg_to_contact(msg: PointCloud2) -> ContactState:

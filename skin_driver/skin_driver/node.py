@@ -1,0 +1,388 @@
+"""``skin_driver_node``: one serial port → one calibrated taxel array topic per skin patch.
+
+Thin node: parameters → :class:`~skin_driver.calibration.CalibrationConfig` and layouts; the
+serial thread (:class:`~skin_driver.transport.SerialReader`) feeds the
+:class:`~skin_driver.protocol.FrameParser`; each frame goes through its board's
+:class:`~skin_driver.calibration.PatchCalibrator` and is published from the serial thread with
+``phri_common.taxels.TaxelCloudEncoder`` (publishing there saves the hand-off to the executor;
+``bench/bench_skin_driver.py`` measures the latency). The executor only runs the diagnostics and
+silence timers, the tare service and parameter services.
+
+Topics: ``skin/<patch>/taxels`` (``sensor_msgs/PointCloud2``, frame = the patch's link, stamp =
+arrival time of the frame's last byte), ``/diagnostics`` (``diagnostic_msgs/DiagnosticArray``).
+Service: ``~/tare`` (``std_srvs/Trigger``). Interface: ``docs/skin_driver.md``.
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.context import Context
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.publisher import Publisher
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import PointCloud2
+from std_srvs.srv import Trigger
+
+from phri_common.params import ParameterValueError, ParamSpec, ParamValue
+from phri_common.ros_params import declare_parameters
+from phri_common.stamps import ns_to_stamp
+from phri_common.taxels import TaxelCloudEncoder
+from skin_driver.calibration import CalibrationConfig, PatchCalibrator
+from skin_driver.diagnostics import BoardSnapshot, PortSnapshot, board_status, port_status
+from skin_driver.layout import LayoutError, SkinLayout, load_layout
+from skin_driver.protocol import MAX_TAXELS, Frame, FrameParser
+from skin_driver.transport import SerialReader
+
+PARAMS: list[ParamSpec] = [
+    ParamSpec("port", "/dev/ttyACM0", "pyserial URL or device path of the skin port "
+              "(a tty, a pty, socket://host:port)", read_only=True),
+    ParamSpec("baudrate", 2_000_000, "serial line rate (ignored by ptys, sockets, USB CDC)",
+              unit="bit/s", low=1200, high=100_000_000, read_only=True),
+    ParamSpec("board_ids", [0], "board id of each patch on this port (protocol header byte 4); "
+              "entry i feeds layout_files[i]", low=0, high=255, min_length=1, read_only=True),
+    ParamSpec("layout_files", [""], "layout file of each patch (patch name, link, taxel "
+              "geometry, calibration), one per board id", min_length=1, read_only=True),
+    ParamSpec("max_taxels", MAX_TAXELS, "largest taxel count the parser accepts in a frame "
+              "header (bounds memory)", low=1, high=MAX_TAXELS, read_only=True),
+    ParamSpec("filter_window", 10, "moving-average window (paper Sec. VI: 10)", unit="frames",
+              low=1, high=1000, read_only=True),
+    ParamSpec("default_gain", 0.0005, "gain of taxels whose layout has no gain column",
+              unit="N/count", low=0.0, high=1.0, read_only=True),
+    ParamSpec("default_offset", 1000.0, "factory zero of taxels whose layout has no offset "
+              "column", unit="count", low=0.0, high=65535.0, read_only=True),
+    ParamSpec("tare_frames", 100, "frames averaged for the start-up tare (0 = factory zero); "
+              "nothing is published meanwhile", unit="frames", low=0, high=100_000,
+              read_only=True),
+    ParamSpec("tare_max_shift", 0.5, "a taxel reading more than this above its factory zero "
+              "during tare is being touched and keeps the factory zero", unit="N", low=0.0,
+              high=1000.0, read_only=True),
+    ParamSpec("drift_time_constant", 60.0, "time constant of the zero tracking of untouched "
+              "taxels (0 = no drift compensation)", unit="s", low=0.0, high=100_000.0,
+              read_only=True),
+    ParamSpec("drift_band", 0.03, "deviation from the zero that still counts as untouched; "
+              "bounds how much of a slowly growing contact can be absorbed", unit="N", low=0.0,
+              high=100.0, read_only=True),
+    ParamSpec("release_time_constant", 1.0, "time constant that pulls a zero above the signal "
+              "(negative reading) down", unit="s", low=0.001, high=10_000.0, read_only=True),
+    ParamSpec("saturation_count", 65535, "raw count at or above which a taxel is saturated",
+              unit="count", low=1, high=65535, read_only=True),
+    ParamSpec("stuck_time", 5.0, "a raw count unchanged this long masks the taxel as dead "
+              "until it changes (0 = off)", unit="s", low=0.0, high=3600.0, read_only=True),
+    ParamSpec("silence_timeout", 0.1, "a board without frames this long is declared silent "
+              "(its patch is not published; diagnostics ERROR)", unit="s", low=0.004,
+              high=60.0),
+    ParamSpec("diagnostics_period", 1.0, "period of /diagnostics", unit="s", low=0.05,
+              high=60.0, read_only=True),
+    ParamSpec("reconnect_backoff_initial", 0.1, "first wait before reopening a lost port; "
+              "doubles per failure", unit="s", low=0.01, high=10.0, read_only=True),
+    ParamSpec("reconnect_backoff_max", 2.0, "longest wait between reopen attempts", unit="s",
+              low=0.01, high=60.0, read_only=True),
+    ParamSpec("qos_depth", 5, "keep-last depth of the taxel publishers (reliable)",
+              unit="messages", low=1, high=1000, read_only=True),
+]
+
+
+def calibration_config(values: dict[str, ParamValue]) -> CalibrationConfig:
+    """Parameter values → calibration settings (pure)."""
+    return CalibrationConfig(
+        default_gain=float(values["default_gain"]),
+        default_offset=float(values["default_offset"]),
+        filter_window=int(values["filter_window"]),
+        tare_frames=int(values["tare_frames"]),
+        tare_max_shift=float(values["tare_max_shift"]),
+        drift_time_constant=float(values["drift_time_constant"]),
+        drift_band=float(values["drift_band"]),
+        release_time_constant=float(values["release_time_constant"]),
+        saturation_count=int(values["saturation_count"]),
+        stuck_time=float(values["stuck_time"]),
+    )
+
+
+def load_patches(board_ids: Sequence[int], files: Sequence[str]) -> dict[int, SkinLayout]:
+    """Board id → layout, refusing mismatched lists, duplicate ids/patches or bad files."""
+    if len(board_ids) != len(files):
+        raise ParameterValueError(
+            f"parameter 'layout_files' needs one file per entry of 'board_ids' "
+            f"({len(board_ids)}), got {len(files)}"
+        )
+    if len(set(board_ids)) != len(board_ids):
+        raise ParameterValueError(f"parameter 'board_ids' has duplicates: {list(board_ids)}")
+    patches: dict[int, SkinLayout] = {}
+    for board, path in zip(board_ids, files, strict=True):
+        if not path:
+            raise ParameterValueError(
+                f"parameter 'layout_files': no layout file for board {board}"
+            )
+        try:
+            patches[int(board)] = load_layout(path)
+        except LayoutError as err:
+            raise ParameterValueError(f"parameter 'layout_files': {err}") from err
+    names = [layout.patch for layout in patches.values()]
+    if len(set(names)) != len(names):
+        raise ParameterValueError(f"parameter 'layout_files': duplicate patch names {names}")
+    return patches
+
+
+@dataclass
+class _Channel:
+    """One board: its patch, calibrator, encoder, publisher and counters."""
+
+    board_id: int
+    layout: SkinLayout
+    calibrator: PatchCalibrator
+    encoder: TaxelCloudEncoder
+    publisher: Publisher
+    frames: int = 0
+    published: int = 0
+    size_mismatches: int = 0
+    last_frame_mono: float = 0.0
+    silent: bool = True
+    frames_at_last_diag: int = 0
+    dropped_at_last_diag: int = 0
+
+
+class SkinDriverNode(Node):
+    """Skin driver for one serial port (see module docstring)."""
+
+    def __init__(
+        self,
+        *,
+        context: Context | None = None,
+        node_name: str = "skin_driver",
+        parameter_overrides: list[Parameter] | None = None,
+    ) -> None:
+        super().__init__(node_name, context=context, parameter_overrides=parameter_overrides)
+        try:
+            self._values = declare_parameters(self, PARAMS)
+            v = self._values
+            config = calibration_config(v)
+            layouts = load_patches(
+                [int(b) for b in v["board_ids"]],
+                [str(f) for f in v["layout_files"]],
+            )
+        except ParameterValueError:
+            # Refused configuration: leave nothing registered with the context.
+            super().destroy_node()
+            raise
+        qos = QoSProfile(
+            history=HistoryPolicy.KEEP_LAST,
+            depth=int(v["qos_depth"]),
+            reliability=ReliabilityPolicy.RELIABLE,
+        )
+        self._lock = threading.Lock()
+        self._channels: dict[int, _Channel] = {}
+        for board, layout in layouts.items():
+            self._channels[board] = _Channel(
+                board_id=board,
+                layout=layout,
+                calibrator=PatchCalibrator(
+                    layout.size, config, layout.gains, layout.offsets, layout.dead
+                ),
+                encoder=TaxelCloudEncoder(
+                    layout.positions, layout.normals, layout.link, layout.weights
+                ),
+                publisher=self.create_publisher(
+                    PointCloud2, f"skin/{layout.patch}/taxels", qos
+                ),
+            )
+        self._url = str(v["port"])
+        self._parser = FrameParser(int(v["max_taxels"]))
+        self._unknown_board_frames = 0
+        self._errors_at_last_diag = 0
+        self._last_diag_mono = time.monotonic()
+        self._port_warned = False
+        self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self._tare_srv = self.create_service(Trigger, "~/tare", self._on_tare)
+        self.create_timer(float(v["diagnostics_period"]), self.publish_diagnostics)
+        silence = float(v["silence_timeout"])
+        self._silence_timer = self.create_timer(max(silence / 2.0, 0.002), self._check_silence)
+        self._reader = SerialReader(
+            self._url,
+            self._on_data,
+            baudrate=int(v["baudrate"]),
+            backoff_initial=float(v["reconnect_backoff_initial"]),
+            backoff_max=max(
+                float(v["reconnect_backoff_max"]),
+                float(v["reconnect_backoff_initial"]),
+            ),
+            clock=lambda: self.get_clock().now().nanoseconds,
+            on_connect=self._on_connect,
+            on_error=self._on_port_error,
+        )
+        self._reader.start()
+        patches = ", ".join(f"{b}→{c.layout.patch}" for b, c in self._channels.items())
+        self.get_logger().info(f"reading {self._url}; boards {patches}")
+
+    # ------------------------------------------------------------------ serial thread side
+
+    def _on_connect(self) -> None:
+        with self._lock:
+            # A new connection is a new stream: a half frame from before is garbage.
+            self._parser.reset()
+        self._port_warned = False
+        self.get_logger().info(f"port {self._url} open")
+
+    def _on_port_error(self, message: str) -> None:
+        # Once per outage: the back-off retries would otherwise flood the log.
+        if not self._port_warned:
+            self._port_warned = True
+            self.get_logger().error(f"{message}; retrying with back-off")
+
+    def _on_data(self, chunk: bytes, arrival_ns: int) -> None:
+        with self._lock:
+            frames = self._parser.feed(chunk)
+            mono = time.monotonic()
+            for frame in frames:
+                self._on_frame(frame, arrival_ns, mono)
+
+    def _on_frame(self, frame: Frame, stamp_ns: int, mono: float) -> None:
+        channel = self._channels.get(frame.board_id)
+        if channel is None:
+            self._unknown_board_frames += 1
+            return
+        if frame.counts.shape[0] != channel.layout.size:
+            channel.size_mismatches += 1
+            return
+        channel.frames += 1
+        channel.last_frame_mono = mono
+        if channel.silent:
+            channel.silent = False
+            channel.calibrator.reset_filter()
+            self.get_logger().info(f"board {frame.board_id} ({channel.layout.patch}) is sending")
+        forces = channel.calibrator.process(frame.counts, mono)
+        if forces is None:
+            return
+        channel.publisher.publish(channel.encoder.encode(forces, stamp_ns))
+        channel.published += 1
+
+    # ----------------------------------------------------------------------- executor side
+
+    def _check_silence(self) -> None:
+        timeout = float(self._values["silence_timeout"])
+        now = time.monotonic()
+        newly_silent = []
+        with self._lock:
+            for channel in self._channels.values():
+                if not channel.silent and now - channel.last_frame_mono > timeout:
+                    channel.silent = True
+                    newly_silent.append(channel)
+        for channel in newly_silent:
+            self.get_logger().warning(
+                f"board {channel.board_id} ({channel.layout.patch}) silent for more than "
+                f"{timeout:g} s: stopped publishing skin/{channel.layout.patch}/taxels"
+            )
+        if newly_silent:
+            self.publish_diagnostics()
+
+    def _on_tare(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        with self._lock:
+            for channel in self._channels.values():
+                channel.calibrator.tare()
+        response.success = True
+        response.message = f"taring {len(self._channels)} patch(es)"
+        return response
+
+    def snapshot(self) -> tuple[PortSnapshot, list[BoardSnapshot]]:
+        """Current state of the port and every board (for diagnostics and tests)."""
+        now = time.monotonic()
+        with self._lock:
+            elapsed = max(now - self._last_diag_mono, 1e-6)
+            self._last_diag_mono = now
+            s = self._parser.stats
+            errors = s.crc_errors + s.bad_headers + s.resyncs
+            t = self._reader.stats
+            port = PortSnapshot(
+                url=self._url,
+                connected=t.connected,
+                connects=t.connects,
+                disconnects=t.disconnects,
+                failed_opens=t.failed_opens,
+                bytes_read=t.bytes_read,
+                crc_errors=s.crc_errors,
+                bad_headers=s.bad_headers,
+                resyncs=s.resyncs,
+                discarded_bytes=s.discarded_bytes,
+                unknown_board_frames=self._unknown_board_frames,
+                new_errors=errors - self._errors_at_last_diag,
+                last_error=t.last_error,
+            )
+            self._errors_at_last_diag = errors
+            boards = []
+            for board, c in self._channels.items():
+                seq = s.boards.get(board)
+                dropped = 0 if seq is None else seq.dropped
+                boards.append(
+                    BoardSnapshot(
+                        board_id=board,
+                        patch=c.layout.patch,
+                        link=c.layout.link,
+                        taxels=c.layout.size,
+                        rate_hz=(c.frames - c.frames_at_last_diag) / elapsed,
+                        frames=c.frames,
+                        published=c.published,
+                        dropped=dropped,
+                        new_drops=dropped - c.dropped_at_last_diag,
+                        restarts=0 if seq is None else seq.restarts,
+                        size_mismatches=c.size_mismatches,
+                        silent=c.silent,
+                        last_frame_age_s=(now - c.last_frame_mono) if c.frames else float("inf"),
+                        calibration=c.calibrator.status(),
+                    )
+                )
+                c.frames_at_last_diag = c.frames
+                c.dropped_at_last_diag = dropped
+        return port, boards
+
+    def publish_diagnostics(self) -> None:
+        port, boards = self.snapshot()
+        msg = DiagnosticArray()
+        msg.header.stamp = ns_to_stamp(self.get_clock().now().nanoseconds)
+        msg.status = [port_status(port), *(board_status(b, self._url) for b in boards)]
+        self._diag_pub.publish(msg)
+
+    def destroy_node(self) -> None:
+        reader = getattr(self, "_reader", None)  # absent if the constructor failed early
+        if reader is not None:
+            reader.stop()
+        super().destroy_node()
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    """Console entry point ``skin_driver_node [--ros-args …]``.
+
+    The serial thread does the per-frame work; the executor only runs timers and services, so
+    it is the ``SingleThreadedExecutor``. The experimental ``EventsExecutor`` (design §5) was
+    measured here with this node: it idles at 20–90 % CPU, starves the serial thread of the GIL
+    and ignores SIGTERM, so it is not used (see docs/skin_driver.md).
+    """
+    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+
+    rclpy.init(args=None if args is None else list(args))
+    node: SkinDriverNode | None = None
+    try:
+        node = SkinDriverNode()
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        executor.spin()
+    except ParameterValueError as err:
+        rclpy.logging.get_logger("skin_driver").fatal(str(err))
+        return 2
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,171 @@
+"""Serial transport: read any pyserial URL on a thread, reconnect with back-off (no rclpy).
+
+``SerialReader`` owns one port. Its thread opens the port (a tty, a pty, ``socket://host:port``,
+anything ``serial.serial_for_url`` accepts), hands every chunk it reads to ``on_data`` together
+with the time the chunk arrived, and when the device disappears (unplug, the pty's other side
+closes, the socket drops) it closes the port and retries with exponential back-off until the
+device is back or :meth:`SerialReader.stop` is called. No exception escapes the thread: a failing
+``on_data`` is reported through ``on_error`` and reading goes on.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import serial
+
+READ_CHUNK_MAX = 1 << 16
+
+
+@dataclass
+class TransportStats:
+    """Counters of one port (monotonic).
+
+    Attributes:
+        connected: the port is open now.
+        connects: successful opens.
+        disconnects: open ports lost to an error.
+        failed_opens: open attempts that failed.
+        bytes_read: bytes received.
+        last_error: text of the most recent error ("" if none).
+    """
+
+    connected: bool = False
+    connects: int = 0
+    disconnects: int = 0
+    failed_opens: int = 0
+    bytes_read: int = 0
+    last_error: str = ""
+
+
+def _time_ns() -> int:
+    return time.time_ns()
+
+
+class SerialReader:
+    """Reads a pyserial URL on its own thread and reconnects when the device disappears.
+
+    Args:
+        url: pyserial URL or device path.
+        on_data: called on the reader thread with ``(chunk, arrival_ns)`` for every read.
+        baudrate: line rate [bit/s] (ignored by ptys, sockets and USB CDC devices).
+        read_timeout: longest a read blocks, so :meth:`stop` is honoured promptly [s].
+        backoff_initial: first wait after a failure [s]; doubles on every further failure.
+        backoff_max: longest wait between open attempts [s].
+        clock: arrival-time source [ns] (the node passes its ROS clock).
+        on_connect: called with no argument after each successful open (e.g. reset the parser).
+        on_error: called with a message whenever something fails (open, read, on_data).
+        open_port: factory for the port object (tests substitute a fake).
+    """
+
+    def __init__(
+        self,
+        url: str,
+        on_data: Callable[[bytes, int], None],
+        *,
+        baudrate: int = 2_000_000,
+        read_timeout: float = 0.05,
+        backoff_initial: float = 0.1,
+        backoff_max: float = 2.0,
+        clock: Callable[[], int] = _time_ns,
+        on_connect: Callable[[], None] | None = None,
+        on_error: Callable[[str], None] | None = None,
+        open_port: Callable[..., Any] = serial.serial_for_url,
+    ) -> None:
+        if not (0 < backoff_initial <= backoff_max):
+            raise ValueError("need 0 < backoff_initial <= backoff_max")
+        self.url = url
+        self.stats = TransportStats()
+        self._on_data = on_data
+        self._baudrate = baudrate
+        self._read_timeout = read_timeout
+        self._backoff_initial = backoff_initial
+        self._backoff_max = backoff_max
+        self._clock = clock
+        self._on_connect = on_connect
+        self._on_error = on_error
+        self._open_port = open_port
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._port: Any = None
+
+    def start(self) -> None:
+        """Start the reader thread (idempotent)."""
+        if self._thread is not None and self._thread.is_alive():
+            return
+        self._stop.clear()
+        self._thread = threading.Thread(target=self._run, name=f"serial:{self.url}", daemon=True)
+        self._thread.start()
+
+    def stop(self, timeout: float = 2.0) -> None:
+        """Stop the thread and close the port."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout)
+            self._thread = None
+        self._close()
+
+    @property
+    def running(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
+    def _report(self, message: str) -> None:
+        self.stats.last_error = message
+        if self._on_error is not None:
+            # A logging failure must not stop the reader.
+            with contextlib.suppress(Exception):
+                self._on_error(message)
+
+    def _close(self) -> None:
+        port, self._port = self._port, None
+        self.stats.connected = False
+        if port is not None:
+            # Closing a vanished device may fail in any way.
+            with contextlib.suppress(Exception):
+                port.close()
+
+    def _run(self) -> None:
+        backoff = self._backoff_initial
+        while not self._stop.is_set():
+            try:
+                self._port = self._open_port(
+                    self.url, baudrate=self._baudrate, timeout=self._read_timeout
+                )
+            except Exception as err:  # any open failure means: retry later
+                self.stats.failed_opens += 1
+                self._report(f"cannot open {self.url}: {err}")
+                self._stop.wait(backoff)
+                backoff = min(2.0 * backoff, self._backoff_max)
+                continue
+            self.stats.connected = True
+            self.stats.connects += 1
+            backoff = self._backoff_initial
+            if self._on_connect is not None:
+                self._on_connect()
+            self._read_until_error()
+            self._close()
+            if not self._stop.is_set():
+                self.stats.disconnects += 1
+                self._stop.wait(backoff)
+
+    def _read_until_error(self) -> None:
+        port = self._port
+        while not self._stop.is_set():
+            try:
+                waiting = port.in_waiting
+                chunk = port.read(min(max(waiting, 1), READ_CHUNK_MAX))
+            except Exception as err:  # SerialException, OSError (EIO on unplug), …
+                self._report(f"lost {self.url}: {err}")
+                return
+            if not chunk:
+                continue
+            self.stats.bytes_read += len(chunk)
+            try:
+                self._on_data(chunk, self._clock())
+            except Exception as err:  # the reader must outlive a bad handler
+                self._report(f"error handling data from {self.url}: {err!r}")

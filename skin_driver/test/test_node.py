@@ -1,0 +1,247 @@
+"""The driver node end to end: simulated board on a pty → node → subscriber."""
+
+from __future__ import annotations
+
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import PointCloud2
+
+from phri_common.params import ParameterValueError
+from phri_common.taxels import msg_to_taxels
+from phri_common.testing import spin_until
+from skin_driver.layout import rectangular_patch, save_layout
+from skin_driver.node import PARAMS, SkinDriverNode
+from skin_driver.sim_board import Faults, PtyEndpoint, SimBoard, press_pattern, run_boards
+
+RATE = 500.0
+
+
+class Board:
+    """A simulated board on a pty behind a stable symlink; can vanish and come back."""
+
+    def __init__(self, link: Path, boards: list, faults: Faults | None = None) -> None:
+        self.link, self.boards = link, boards
+        self.stop = threading.Event()
+        self.thread: threading.Thread | None = None
+
+    def start(self) -> None:
+        self.stop = threading.Event()
+        self.thread = threading.Thread(
+            target=run_boards,
+            args=(lambda: PtyEndpoint(self.link), self.boards, RATE, self.stop),
+            daemon=True,
+        )
+        self.thread.start()
+        deadline = time.monotonic() + 5
+        while not self.link.exists() and time.monotonic() < deadline:
+            time.sleep(0.01)
+
+    def vanish(self) -> None:
+        self.stop.set()
+        if self.thread is not None:
+            self.thread.join(5)
+
+
+class Listener:
+    def __init__(self, node: Node, topic: str) -> None:
+        self.times: list[float] = []
+        self.msgs: list[PointCloud2] = []
+        self.diags: list[DiagnosticArray] = []
+        node.create_subscription(PointCloud2, topic, self._on, 50)
+        node.create_subscription(DiagnosticArray, "/diagnostics", self.diags.append, 50)
+
+    def _on(self, msg: PointCloud2) -> None:
+        self.times.append(time.monotonic())
+        self.msgs.append(msg)
+
+
+def _status(listener: Listener, name_part: str) -> DiagnosticStatus | None:
+    for arr in reversed(listener.diags):
+        for s in arr.status:
+            if name_part in s.name:
+                return s
+    return None
+
+
+def _value(status: DiagnosticStatus, key: str) -> str:
+    return next(kv.value for kv in status.values if kv.key == key)
+
+
+@pytest.fixture
+def setup(tmp_path: Path):  # type: ignore[no-untyped-def]
+    layout = rectangular_patch("forearm", "forearm_link", 6, 6)
+    path = tmp_path / "forearm.yaml"
+    save_layout(layout, path)
+    return layout, path, tmp_path / "skin_port"
+
+
+def _node(ros_context, port: Path, layout_file: Path, **extra) -> SkinDriverNode:  # type: ignore[no-untyped-def]
+    overrides = [
+        Parameter("port", value=str(port)),
+        Parameter("board_ids", value=[4]),
+        Parameter("layout_files", value=[str(layout_file)]),
+        Parameter("reconnect_backoff_initial", value=0.05),
+        Parameter("reconnect_backoff_max", value=0.2),
+        Parameter("diagnostics_period", value=0.2),
+        *(Parameter(k, value=v) for k, v in extra.items()),
+    ]
+    return SkinDriverNode(context=ros_context, parameter_overrides=overrides)
+
+
+@pytest.mark.ros
+def test_pty_board_to_subscriber_and_recovery(ros_context, setup) -> None:  # type: ignore[no-untyped-def]
+    layout, layout_file, link = setup
+    pressed = press_pattern(layout, force=4.0, radius=0.008, period=0.0)  # held press
+    board = Board(link, [(SimBoard(4, layout, noise_counts=2.0, seed=0), pressed)])
+    board.start()
+    node = _node(ros_context, link, layout_file)
+    sub = Node("listener", context=ros_context)
+    listener = Listener(sub, "skin/forearm/taxels")
+    ex = SingleThreadedExecutor(context=ros_context)
+    ex.add_node(node)
+    ex.add_node(sub)
+    try:
+        # Tare (0.2 s) then steady publishing.
+        assert spin_until(ex, lambda: len(listener.msgs) >= 50, timeout_s=15.0)
+        n0, t0 = len(listener.msgs), time.monotonic()
+        spin_until(ex, lambda: time.monotonic() - t0 > 2.0, timeout_s=3.0)
+        rate = (len(listener.msgs) - n0) / (time.monotonic() - t0)
+        assert rate >= 0.6 * RATE, f"received {rate:.0f} Hz"
+        taxels = msg_to_taxels(listener.msgs[-1])
+        assert taxels.frame_id == "forearm_link"
+        np.testing.assert_allclose(taxels.positions, layout.positions, atol=1e-6)
+        # The press was held through tare, with 4 N spread over the taxels in 8 mm: it is
+        # above tare_max_shift per taxel, so it stays visible at its true force.
+        expected = pressed(0.0)
+        np.testing.assert_allclose(taxels.forces, expected, atol=0.01)
+        assert taxels.forces.sum() == pytest.approx(4.0, abs=0.05)
+        stamp_age = time.time_ns() - taxels.stamp_ns
+        assert 0 <= stamp_age < 5e9
+
+        # The board disappears: publishing stops, diagnostics say so.
+        board.vanish()
+        assert spin_until(
+            ex,
+            lambda: (s := _status(listener, "forearm")) is not None
+            and s.level == DiagnosticStatus.ERROR and "silent" in s.message,
+            timeout_s=5.0,
+        )
+        port = _status(listener, "port")
+        assert port is not None
+        spin_until(ex, lambda: False, timeout_s=0.3)
+        n_silent = len(listener.msgs)
+        spin_until(ex, lambda: False, timeout_s=0.5)
+        assert len(listener.msgs) == n_silent  # nothing published while silent
+
+        # It comes back (new pty behind the same link): the node reconnects and publishes.
+        board.start()
+        assert spin_until(ex, lambda: len(listener.msgs) >= n_silent + 100, timeout_s=15.0)
+        assert node._reader.stats.connects >= 2
+        assert spin_until(
+            ex,
+            lambda: (s := _status(listener, "forearm")) is not None
+            and s.level != DiagnosticStatus.ERROR,
+            timeout_s=5.0,
+        )
+        np.testing.assert_allclose(msg_to_taxels(listener.msgs[-1]).forces, expected, atol=0.01)
+    finally:
+        board.vanish()
+        node.destroy_node()
+        sub.destroy_node()
+
+
+@pytest.mark.ros
+def test_corrupted_line_is_counted_and_survived(ros_context, setup) -> None:  # type: ignore[no-untyped-def]
+    layout, layout_file, link = setup
+    faults = Faults(garbage_rate=0.2, bitflip_rate=0.05, drop_rate=0.05)
+    pattern = press_pattern(layout, force=2.0, radius=0.01, period=0.4)
+    board = Board(link, [(SimBoard(4, layout, faults=faults, seed=1), pattern),
+                         (SimBoard(9, layout, seed=2), pattern)])  # 9: not configured
+    board.start()
+    node = _node(ros_context, link, layout_file)
+    sub = Node("listener", context=ros_context)
+    listener = Listener(sub, "skin/forearm/taxels")
+    ex = SingleThreadedExecutor(context=ros_context)
+    ex.add_node(node)
+    ex.add_node(sub)
+    try:
+        assert spin_until(ex, lambda: len(listener.msgs) >= 300, timeout_s=15.0)
+        port, boards = node.snapshot()
+        assert port.crc_errors > 0 and port.resyncs > 0 and port.unknown_board_frames > 0
+        assert boards[0].dropped > 0
+        for msg in listener.msgs[-50:]:
+            f = msg_to_taxels(msg).forces
+            assert np.all(np.isfinite(f)) and np.all(f >= 0) and f.sum() < 2.1
+    finally:
+        board.vanish()
+        node.destroy_node()
+        sub.destroy_node()
+
+
+@pytest.mark.ros
+def test_bad_parameters_are_refused(ros_context, setup, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    _, layout_file, link = setup
+    with pytest.raises(ParameterValueError, match="layout_files"):
+        SkinDriverNode(context=ros_context, parameter_overrides=[
+            Parameter("port", value=str(link)), Parameter("board_ids", value=[1, 2]),
+            Parameter("layout_files", value=[str(layout_file)])])
+    with pytest.raises(ParameterValueError, match="filter_window"):
+        _node(ros_context, link, layout_file, filter_window=0)
+    missing = tmp_path / "nope.yaml"
+    with pytest.raises(ParameterValueError, match=r"nope\.yaml"):
+        _node(ros_context, link, missing)
+    # No board behind the port: the node starts, retries, and refuses a bad run-time value.
+    node = _node(ros_context, link, layout_file)
+    try:
+        result = node.set_parameters([Parameter("silence_timeout", value=float("nan"))])[0]
+        assert not result.successful and "silence_timeout" in result.reason
+        assert node.set_parameters([Parameter("silence_timeout", value=0.5)])[0].successful
+        port, boards = node.snapshot()
+        assert not port.connected and boards[0].silent
+    finally:
+        node.destroy_node()
+
+
+def test_every_parameter_is_documented() -> None:
+    doc = (Path(__file__).parents[2] / "docs" / "skin_driver.md").read_text()
+    missing = [s.name for s in PARAMS if f"`{s.name}`" not in doc]
+    assert not missing, f"docs/skin_driver.md lacks {missing}"
+
+
+@pytest.mark.ros
+def test_two_patches_on_one_port(ros_context, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    a = rectangular_patch("upper", "upper_link", 4, 4)
+    b = rectangular_patch("lower", "lower_link", 3, 5)
+    save_layout(a, tmp_path / "a.yaml")
+    save_layout(b, tmp_path / "b.yaml")
+    link = tmp_path / "port"
+    pa = press_pattern(a, force=3.0, radius=0.005, period=0.0)
+    pb = press_pattern(b, force=1.5, radius=0.005, period=0.0)  # > tare_max_shift
+    board = Board(link, [(SimBoard(7, b, seed=1), pb), (SimBoard(2, a, seed=2), pa)])
+    board.start()
+    node = SkinDriverNode(context=ros_context, parameter_overrides=[
+        Parameter("port", value=str(link)), Parameter("board_ids", value=[2, 7]),
+        Parameter("layout_files", value=[str(tmp_path / "a.yaml"), str(tmp_path / "b.yaml")])])
+    sub = Node("listener", context=ros_context)
+    la, lb = Listener(sub, "skin/upper/taxels"), Listener(sub, "skin/lower/taxels")
+    ex = SingleThreadedExecutor(context=ros_context)
+    ex.add_node(node)
+    ex.add_node(sub)
+    try:
+        assert spin_until(ex, lambda: len(la.msgs) > 50 and len(lb.msgs) > 50, timeout_s=15.0)
+        ta, tb = msg_to_taxels(la.msgs[-1]), msg_to_taxels(lb.msgs[-1])
+        assert (ta.frame_id, ta.size, tb.frame_id, tb.size) == ("upper_link", 16, "lower_link", 15)
+        np.testing.assert_allclose(ta.forces, pa(0.0), atol=0.01)
+        np.testing.assert_allclose(tb.forces, pb(0.0), atol=0.01)
+    finally:
+        board.vanish()
+        node.destroy_node()
+        sub.destroy_node()

@@ -1,0 +1,123 @@
+"""Simulated board ↔ parser/calibration agreement, fault injection, pty transport reconnect."""
+
+from __future__ import annotations
+
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from skin_driver.calibration import CalibrationConfig, PatchCalibrator
+from skin_driver.layout import SkinLayout, rectangular_patch
+from skin_driver.protocol import FrameParser
+from skin_driver.sim_board import (
+    Faults,
+    PtyEndpoint,
+    SimBoard,
+    main,
+    press_pattern,
+    replay_pattern,
+    run_boards,
+)
+from skin_driver.transport import SerialReader
+
+
+def _wait(cond, timeout: float = 10.0) -> bool:  # type: ignore[no-untyped-def]
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if cond():
+            return True
+        time.sleep(0.01)
+    return bool(cond())
+
+
+def test_board_and_driver_calibration_agree() -> None:
+    base = rectangular_patch("p", "l", 4, 4)
+    rng = np.random.default_rng(0)
+    layout = SkinLayout(base.patch, base.link, base.positions, base.normals,
+                        gains=rng.uniform(3e-4, 7e-4, 16), offsets=rng.uniform(500, 1500, 16))
+    board = SimBoard(2, layout, noise_counts=1.0, seed=1)
+    parser = FrameParser()
+    cal = PatchCalibrator(16, CalibrationConfig(tare_frames=0, drift_time_constant=0),
+                          layout.gains, layout.offsets)
+    forces = np.linspace(0.0, 3.0, 16)
+    out = None
+    for k in range(20):
+        for frame in parser.feed(board.frame(forces, k / 500)):
+            assert frame.board_id == 2
+            out = cal.process(frame.counts, k / 500)
+    assert out is not None
+    # Count resolution 0.7 mN, noise σ 1 count averaged over 10 frames.
+    np.testing.assert_allclose(out, forces, atol=2e-3)
+
+
+def test_press_pattern_total_force_and_replay() -> None:
+    layout = rectangular_patch("p", "l", 10, 10)
+    pattern = press_pattern(layout, force=6.0, radius=0.012, period=1.0, duty=0.5)
+    on, off = pattern(0.1), pattern(0.7)
+    assert on.sum() == pytest.approx(6.0) and np.count_nonzero(on) > 1 and off.sum() == 0.0
+    rec = np.arange(12.0).reshape(4, 3)
+    replay = replay_pattern(rec, rate=10.0)
+    np.testing.assert_array_equal(replay(0.25), rec[2])
+    np.testing.assert_array_equal(replay(0.45), rec[0])  # loops
+
+
+def test_fault_injection_is_seen_by_the_parser() -> None:
+    faults = Faults(garbage_rate=0.2, bitflip_rate=0.1, drop_rate=0.1)
+    board = SimBoard(0, size=64, faults=faults, seed=3)
+    parser = FrameParser()
+    for k in range(2000):
+        parser.feed(board.frame(np.zeros(64), k / 500))
+    parser.feed(bytes(4096))
+    c = board.counters
+    assert c.garbage_bursts > 300 and c.bitflips > 150 and c.dropped > 150
+    # Every intact frame is recovered; every flipped one is rejected and counted as lost.
+    assert parser.stats.frames == c.frames
+    assert parser.stats.boards[0].dropped == c.dropped + c.bitflips
+    assert parser.stats.crc_errors >= c.bitflips * 0.9  # a flipped sync byte is no CRC error
+
+
+def test_pty_reader_survives_disconnects(tmp_path: Path) -> None:
+    link = tmp_path / "skin0"
+    faults = Faults(disconnect_every=0.4, disconnect_duration=0.3)
+    board = SimBoard(0, size=32, faults=faults, seed=0)
+    stop = threading.Event()
+    writer = threading.Thread(
+        target=run_boards,
+        args=(lambda: PtyEndpoint(link), [(board, lambda t: np.zeros(32))], 200.0, stop),
+        daemon=True,
+    )
+    writer.start()
+    parser = FrameParser()
+    reader = SerialReader(str(link), lambda d, t: parser.feed(d), backoff_initial=0.02,
+                          backoff_max=0.1)
+    try:
+        assert _wait(link.exists)
+        reader.start()
+        assert _wait(lambda: reader.stats.connects >= 3 and parser.stats.frames > 100, 15.0)
+        assert reader.stats.disconnects >= 2
+        assert reader.running
+    finally:
+        stop.set()
+        reader.stop()
+        writer.join(5)
+
+
+def test_cli_writes_frames_into_a_pty(tmp_path: Path) -> None:
+    link = tmp_path / "cli"
+    parser = FrameParser()
+    rc: list[int] = []
+    t = threading.Thread(target=lambda: rc.append(main(
+        ["--link", str(link), "--taxels", "16", "--duration", "1.5", "--rate", "200",
+         "--boards", "2", "--garbage-rate", "0.1"])), daemon=True)
+    t.start()
+    reader = SerialReader(str(link), lambda d, _: parser.feed(d), backoff_initial=0.02,
+                          backoff_max=0.05)
+    reader.start()
+    t.join(10)
+    reader.stop()
+    assert rc == [0]
+    assert set(parser.stats.boards) == {0, 1}
+    assert parser.stats.frames > 100
