@@ -5,7 +5,7 @@
 set -euo pipefail
 cd "$(dirname "$0")"
 
-PACKAGES=(phri_common phri_description skin_driver contact_estimation wholebody_controller phri_sim phri_bringup)
+PACKAGES=(phri_common phri_description skin_driver contact_estimation wholebody_controller phri_sim phri_bringup phri_hardware)
 
 pick_python() {
     for candidate in "${PYTHON:-}" python3.11 python3; do
