@@ -1,16 +1,20 @@
-"""Benchmark: the whole-body control step, side by side with mink's IK step (design §7).
+"""Benchmark: the full whole-body control step, side by side with mink's IK step (design §7).
 
-1. ``controller``: one :meth:`WholeBodyController.step` with all three skin links in contact
+1. ``full step``: contact estimation of 3 links × 2,000 taxels (``set_forces`` per patch +
+   ``estimate``) followed by :meth:`WholeBodyController.step` with all three links in contact
    (three admittances + life-cycles, kinematics update + three contact-centre Jacobians, QP build
-   and solve), for each QP backend, plus a breakdown of its parts. Contact estimation on
-   3 × 2,000 taxels is not included here: :func:`control_step` takes ready ``ContactState``s, so
-   the estimator's per-step cost (``bench_contact_estimation.py``) adds on top.
+   and solve), for each QP backend; the same with 3 × 10,000 taxels; then the breakdown into
+   stages, and the straightforward numpy reference step (``wholebody_controller/test/
+   wbc_reference.py``, the implementation before the optimisation) for a same-load comparison.
 2. ``mink``: ``mink.solve_ik`` on the same robot (same MuJoCo model, same joints) with three
    ``FrameTask``s on the same links, ``ConfigurationLimit`` and ``VelocityLimit``, with daqp and
    OSQP; timed per call including ``Configuration.update``.
-3. ``node``: the ROS node at 500 Hz (EventsExecutor, inputs published at 500 Hz by a peer node in
-   the same process): loop period median, p99 of |period − 2 ms|, max.
+3. ``node`` (``--node-seconds``): the controller node at 500 Hz in this process, spun like
+   ``phri_common.ros_main.run_nodes`` (single-threaded executor), with its inputs (joint states,
+   odometry, three contact states at 500 Hz) published by a separate peer process: loop period
+   median, p99 of |period − 2 ms|, max.
 
+All cases are timed in interleaved rounds so that a change of machine load hits every row alike.
 Run: ``.venv/bin/python bench/bench_controller.py [--repeats 3000] [--node-seconds 5]``
 Prints median and p99 in µs.
 """
@@ -18,29 +22,46 @@ Prints median and p99 in µs.
 from __future__ import annotations
 
 import argparse
-import threading
+import subprocess
+import sys
 import time
 from collections.abc import Callable, Mapping
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from contact_estimation.estimator import ContactEstimator, EstimatorConfig
 from phri_common.contact import ContactState
 from wholebody_controller.config import SKIN_LINKS, ControllerConfig
 from wholebody_controller.controller import StepResult, WholeBodyController
 from wholebody_controller.kinematics import RobotKinematics
-from wholebody_controller.qp import QPSolver, build_qp, make_solver, velocity_bounds
+from wholebody_controller.qp import QPSolver, make_solver
 
 Q_HOME = np.array([0.0, 0.0, 0.0,
                    0.3, -1.2, 1.5, -1.0, -1.57, 0.0,
                    -0.3, -1.9, -1.5, -1.0, 1.57, 0.0])
 CENTER = np.array([-0.15, 0.0, 0.05])
+ROOT = Path(__file__).resolve().parents[1]
+
+Case = Callable[[int], object]
+
+
+def _patch_tools() -> tuple[Callable[..., Any], Callable[..., Any]]:
+    try:
+        from bench.bench_contact_estimation import cylinder_patch, pressed_forces
+    except ModuleNotFoundError:  # run as a script: bench/ itself is on sys.path
+        from bench_contact_estimation import (  # type: ignore[no-redef]
+            cylinder_patch,
+            pressed_forces,
+        )
+    return cylinder_patch, pressed_forces
 
 
 def control_step(
     controller: WholeBodyController, q: np.ndarray, contacts: Mapping[str, ContactState]
 ) -> StepResult:
-    """The full control step from contact states to the command (what the node runs)."""
+    """The control step from contact states to the command (what the node runs)."""
     return controller.step(q, contacts)
 
 
@@ -56,83 +77,143 @@ def contacts_for(k: int) -> dict[str, ContactState]:
     return out
 
 
+class SkinFrames:
+    """Contact estimation inputs: 3 cylinder patches of n taxels, a pressed area that slides."""
+
+    def __init__(self, taxels: int, frames: int = 64) -> None:
+        cylinder_patch, pressed_forces = _patch_tools()
+        rng = np.random.default_rng(0)
+        self.estimator = ContactEstimator({f"p{i}": link for i, link in enumerate(SKIN_LINKS)},
+                                          EstimatorConfig())
+        positions, normals = cylinder_patch(taxels)
+        for patch in self.estimator_patches:
+            self.estimator.set_geometry(patch, positions, normals)
+        # A pressed band (10 % of the patch) moving along the sequence: the centre slides.
+        base = pressed_forces(taxels, 0.1, rng)
+        self.forces = [np.roll(base, 3 * k) for k in range(frames)]
+
+    @property
+    def estimator_patches(self) -> tuple[str, ...]:
+        return tuple(f"p{i}" for i in range(len(SKIN_LINKS)))
+
+    def estimate(self, k: int) -> dict[str, ContactState]:
+        """One control step's contact estimation: new forces on every patch, one estimate."""
+        forces = self.forces[k % len(self.forces)]
+        for patch in self.estimator_patches:
+            self.estimator.set_forces(patch, forces, k)
+        return self.estimator.estimate()
+
+
 def stats(samples_ns: np.ndarray) -> tuple[float, float]:
     return float(np.median(samples_ns)) / 1e3, float(np.percentile(samples_ns, 99)) / 1e3
 
 
-def timeit(fn: Callable[[int], object], repeats: int) -> tuple[float, float]:
-    for k in range(min(200, repeats)):
-        fn(k)
-    samples = np.empty(repeats)
-    for k in range(repeats):
-        t0 = time.perf_counter_ns()
-        fn(k)
-        samples[k] = time.perf_counter_ns() - t0
-    return stats(samples)
+def time_cases(cases: dict[str, Case], repeats: int, rounds: int = 10) -> dict[str, tuple]:
+    """Median and p99 [µs] of each case, timed in interleaved rounds (after a warm-up)."""
+    for fn in cases.values():
+        for k in range(min(200, repeats)):
+            fn(k)
+    samples = {name: np.empty(repeats) for name in cases}
+    chunk = max(1, repeats // rounds)
+    done = 0
+    while done < repeats:
+        end = min(repeats, done + chunk)
+        for name, fn in cases.items():
+            out = samples[name]
+            for k in range(done, end):
+                t0 = time.perf_counter_ns()
+                fn(k)
+                out[k] = time.perf_counter_ns() - t0
+        done = end
+    return {name: stats(s) for name, s in samples.items()}
 
 
 def row(name: str, result: tuple[float, float]) -> None:
-    print(f"| {name:<52} | {result[0]:>9.1f} | {result[1]:>9.1f} |")
+    print(f"| {name:<62} | {result[0]:>9.1f} | {result[1]:>9.1f} |")
 
 
-def bench_controller(repeats: int) -> None:
+def controller_cases(repeats: int) -> dict[str, Case]:
     contact_seq = [contacts_for(k) for k in range(repeats + 200)]
-    for solver in ("daqp", "osqp"):
-        kin = RobotKinematics()
-        ctl = WholeBodyController(kin, ControllerConfig(solver=solver))
+    cases: dict[str, Case] = {}
+    skin = {n: SkinFrames(n) for n in (2_000, 10_000)}
+
+    def stepper(solver: str, taxels: int | None) -> Case:
+        ctl = WholeBodyController(RobotKinematics(), ControllerConfig(solver=solver))
         state = {"q": Q_HOME.copy()}
 
-        def step(k: int, ctl: WholeBodyController = ctl, state: dict = state) -> None:
-            res = control_step(ctl, state["q"], contact_seq[k])
-            state["q"] = state["q"] + 0.01 * res.qdot
+        def step(k: int) -> None:
+            contacts = skin[taxels].estimate(k) if taxels else contact_seq[k]
+            res = control_step(ctl, state["q"], contacts)
+            state["q"] = state["q"] + 0.002 * res.qdot
 
-        row(f"control step, 3 links in contact, {solver}", timeit(step, repeats))
+        return step
 
-    # Breakdown (daqp).
+    cases["full step: estimation 3×2,000 + controller, daqp"] = stepper("daqp", 2_000)
+    cases["full step: estimation 3×2,000 + controller, osqp"] = stepper("osqp", 2_000)
+    cases["full step: estimation 3×10,000 + controller, daqp"] = stepper("daqp", 10_000)
+    cases["  contact estimation, 3 × 2,000 taxels"] = skin[2_000].estimate
+    cases["  controller step (3 links in contact), daqp"] = stepper("daqp", None)
+
+    # Breakdown of the controller step (daqp), stage by stage as step() runs them.
     kin = RobotKinematics()
     ctl = WholeBodyController(kin)
     res = ctl.step(Q_HOME, contact_seq[0])
-    points = [t.point for t in res.tasks]
+    points = [task.point_array for task in ctl.tasks]
+    blocks = ctl._jacobian_blocks
 
     def kinematics(_k: int) -> None:
         kin.update(Q_HOME)
-        for link, point in zip(SKIN_LINKS, points, strict=True):
+        for link, point, block in zip(SKIN_LINKS, points, blocks, strict=True):
             kin.link_pose(link)
-            kin.point_jacobian(link, point)
+            kin.point_jacobian(link, point, out=block)
 
-    row("  kinematics: update + 3 poses + 3 point Jacobians", timeit(kinematics, repeats))
+    cases["    kinematics: update + 3 poses + 3 point Jacobians"] = kinematics
     kin.update(Q_HOME)
-    poses = [kin.link_pose(link) for link in SKIN_LINKS]
+    poses = []
+    for link in SKIN_LINKS:
+        rot, pos = kin.link_pose(link)
+        poses.append((rot.ravel().tolist(), pos.tolist()))
 
     def tasks(k: int) -> None:
-        cs = contact_seq[k]
+        contacts = contact_seq[k]
         for task, (rot, pos) in zip(ctl.tasks, poses, strict=True):
-            task.update(cs[task.config.link], rot, pos, 0.0)
+            task.advance(contacts[task.config.link], rot, pos, 1.0, 0.0)
 
-    row("  3 tasks: (10)-(20) + Algorithm 1", timeit(tasks, repeats))
-    jacs = [kin.point_jacobian(link, p) for link, p in zip(SKIN_LINKS, points, strict=True)]
-    targets = [t.target for t in res.tasks]
-    weights = [max(t.psi, 0.3) for t in res.tasks]
+    cases["    3 tasks: (10)-(20) + Algorithm 1"] = tasks
+    target = np.concatenate([t.target for t in res.tasks])
+    weights = np.repeat([2.0 * max(t.psi, 0.3) for t in res.tasks], 6)[:, None]
+    builder = ctl._builder
 
     def build(_k: int) -> None:
-        lo, hi = velocity_bounds(Q_HOME, ctl.position_lower, ctl.position_upper,
-                                 ctl.velocity_lower, ctl.velocity_upper, 0.15)
-        build_qp(jacs, targets, weights, 0.1, lo, hi)
+        np.matmul(ctl._raw_jacobian, ctl._base_rotation, out=builder.jacobian)
+        builder.build(Q_HOME, target, weights)
 
-    row("  QP build (22)-(23)", timeit(build, repeats))
-    lo, hi = velocity_bounds(Q_HOME, ctl.position_lower, ctl.position_upper,
-                             ctl.velocity_lower, ctl.velocity_upper, 0.15)
-    problem = build_qp(jacs, targets, weights, 0.1, lo, hi)
+    cases["    QP build (22)-(23)"] = build
+    problem = builder.build(Q_HOME, target, weights)
     for name in ("daqp", "osqp"):
         solver = make_solver(name)
 
         def solve(_k: int, s: QPSolver = solver) -> None:
             s.solve(problem)
 
-        row(f"  QP solve, {name}", timeit(solve, repeats))
+        cases[f"    QP solve, {name}"] = solve
+
+    # The straightforward numpy step (the implementation before the optimisation).
+    sys.path.insert(0, str(ROOT / "wholebody_controller" / "test"))
+    from wbc_reference import RefController
+
+    ref = RefController(RobotKinematics(), ControllerConfig())
+    ref_state = {"q": Q_HOME.copy()}
+
+    def ref_step(k: int) -> None:
+        out = ref.step(ref_state["q"], contact_seq[k])
+        ref_state["q"] = ref_state["q"] + 0.002 * out.qdot
+
+    cases["  reference step (straightforward numpy), daqp"] = ref_step
+    return cases
 
 
-def bench_mink(repeats: int) -> None:
+def mink_cases() -> dict[str, Case]:
     import mink
 
     kin = RobotKinematics()
@@ -144,6 +225,7 @@ def bench_mink(repeats: int) -> None:
         jid = model.joint(name).id
         if np.all(np.isfinite(limits_rad[i])):
             model.jnt_range[jid] = limits_rad[i]
+    cases: dict[str, Case] = {}
     for solver in ("daqp", "osqp"):
         configuration = mink.Configuration(model)
         configuration.update(Q_HOME)
@@ -164,20 +246,59 @@ def bench_mink(repeats: int) -> None:
                  s: str = solver, st: dict = state) -> None:
             c.update(st["q"])
             v = mink.solve_ik(c, t, 0.01, s, damping=1e-3, limits=lim)
-            st["q"] = st["q"] + 0.01 * v
+            st["q"] = st["q"] + 0.002 * v
 
-        row(f"mink solve_ik, 3 frame tasks + limits, {solver}", timeit(step, repeats))
+        cases[f"mink solve_ik, 3 frame tasks + limits, {solver}"] = step
+    return cases
+
+
+# -- node mode ------------------------------------------------------------------------------------
+def run_peer(seconds: float) -> None:
+    """Peer process: publish the controller's inputs at 500 Hz for ``seconds``."""
+    import rclpy
+    from nav_msgs.msg import Odometry
+    from sensor_msgs.msg import JointState, PointCloud2
+
+    from phri_common.contact import contact_to_msg
+    from phri_common.testing import isolate_ros_environment
+    from wholebody_controller.kinematics import JOINT_NAMES
+
+    isolate_ros_environment()
+    rclpy.init()
+    peer = rclpy.create_node("bench_controller_peer")  # SIGTERM from the bench ends it
+    joints_pub = peer.create_publisher(JointState, "/joint_states", 10)
+    odom_pub = peer.create_publisher(Odometry, "/odom", 10)
+    pubs = {link: peer.create_publisher(PointCloud2, f"contacts/{link}", 10)
+            for link in SKIN_LINKS}
+    names, arm = list(JOINT_NAMES[3:]), Q_HOME[3:].tolist()
+    end = time.monotonic() + seconds
+    next_t = time.monotonic()
+    k = 0
+    while time.monotonic() < end and rclpy.ok():
+        k += 1
+        joints_pub.publish(JointState(name=names, position=arm))
+        odom = Odometry()
+        odom.pose.pose.orientation.w = 1.0
+        odom_pub.publish(odom)
+        try:
+            for link, state in contacts_for(k).items():
+                pubs[link].publish(contact_to_msg(state))
+        except Exception:  # terminated by the bench (SIGTERM shut the context down)
+            return
+        next_t += 0.002
+        delay = next_t - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+    peer.destroy_node()
+    rclpy.try_shutdown()
 
 
 def bench_node(seconds: float) -> None:
     import rclpy
     from geometry_msgs.msg import Twist
-    from nav_msgs.msg import Odometry
-    from rclpy.experimental.events_executor import EventsExecutor
+    from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter import Parameter
-    from sensor_msgs.msg import JointState, PointCloud2
 
-    from phri_common.contact import contact_to_msg
     from phri_common.testing import isolate_ros_environment
     from wholebody_controller.node import WholeBodyControllerNode
 
@@ -186,65 +307,71 @@ def bench_node(seconds: float) -> None:
     rclpy.init(context=context, domain_id=domain)
     ticks: list[int] = []
 
+    busy: list[int] = []
+
     class TimedNode(WholeBodyControllerNode):
         def tick(self) -> None:
-            ticks.append(time.perf_counter_ns())
+            t0 = time.perf_counter_ns()
+            ticks.append(t0)
             super().tick()
+            busy.append(time.perf_counter_ns() - t0)
 
     node = TimedNode(context=context, parameter_overrides=[Parameter("rate_hz", value=500.0)])
-    peer = rclpy.node.Node("bench_peer", context=context)
-    joints_pub = peer.create_publisher(JointState, "/joint_states", 10)
-    odom_pub = peer.create_publisher(Odometry, "/odom", 10)
-    contact_pubs = {
-        link: peer.create_publisher(PointCloud2, f"contacts/{link}", 10) for link in SKIN_LINKS
-    }
     commands: list[int] = []
-    peer.create_subscription(Twist, "/cmd_vel", lambda _m: commands.append(1), 10)
-    arm = list(Q_HOME[3:])
-    names = list(node.arm_joints)
-    counter = {"k": 0}
-
-    def publish() -> None:
-        k = counter["k"] = counter["k"] + 1
-        joints_pub.publish(JointState(name=names, position=arm))
-        odom = Odometry()
-        odom.pose.pose.orientation.w = 1.0
-        odom_pub.publish(odom)
-        for link, msg in contacts_for(k).items():
-            contact_pubs[link].publish(contact_to_msg(msg))
-
-    peer.create_timer(0.002, publish)
-    executor = EventsExecutor(context=context)
+    node.create_subscription(Twist, "/cmd_vel", lambda _m: commands.append(1), 10)
+    peer = subprocess.Popen([sys.executable, __file__, "--peer", str(seconds + 70.0)])
+    executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
-    executor.add_node(peer)
-    thread = threading.Thread(target=executor.spin, daemon=True)
-    thread.start()
-    time.sleep(1.0)  # warm-up
-    start = len(ticks)
-    time.sleep(seconds)
+
+    def spin_for(duration: float) -> None:
+        end = time.monotonic() + duration
+        while time.monotonic() < end:
+            executor.spin_once(timeout_sec=0.1)
+
+    # The peer process needs seconds to start on a loaded machine: wait for good cycles.
+    deadline = time.monotonic() + 60.0
+    while node.good_cycles < 500 and time.monotonic() < deadline:
+        executor.spin_once(timeout_sec=0.1)
+    if node.good_cycles < 500:
+        print("\nnode: the input peer did not come up within 60 s")
+    start, good0, zero0 = len(ticks), node.good_cycles, node.zero_cycles
+    cpu0, wall0 = time.process_time(), time.monotonic()
+    spin_for(seconds)
+    cpu = (time.process_time() - cpu0) / (time.monotonic() - wall0)
     periods = np.diff(np.array(ticks[start:])) / 1e6  # ms
-    good, zero = node.good_cycles, node.zero_cycles
+    tick_us = np.array(busy[start:]) / 1e3
+    good, zero = node.good_cycles - good0, node.zero_cycles - zero0
+    peer.terminate()
+    peer.wait(timeout=10)
     executor.shutdown()
     node.destroy_node()
-    peer.destroy_node()
     context.try_shutdown()
     jitter = np.abs(periods - 2.0)
-    print(f"\nnode at 500 Hz over {seconds:.0f} s: {len(periods)} periods, "
-          f"median {np.median(periods):.3f} ms, jitter p99 {np.percentile(jitter, 99):.3f} ms, "
-          f"max {np.max(periods):.3f} ms; control cycles {good} good / {zero} zero; "
-          f"{len(commands)} /cmd_vel received")
+    print(f"\nnode at 500 Hz over {seconds:.0f} s (single-threaded executor, inputs from a peer "
+          f"process): {len(periods)} periods, median {np.median(periods):.3f} ms, jitter p99 "
+          f"{np.percentile(jitter, 99):.3f} ms, max {np.max(periods):.3f} ms; control cycles "
+          f"{good} good / {zero} zero; tick callback median {np.median(tick_us):.0f} µs, p99 "
+          f"{np.percentile(tick_us, 99):.0f} µs; process CPU {100 * cpu:.0f} % of one core")
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
     parser.add_argument("--repeats", type=int, default=3000)
     parser.add_argument("--node-seconds", type=float, default=5.0)
     parser.add_argument("--skip-node", action="store_true")
+    parser.add_argument("--peer", type=float, default=None, help=argparse.SUPPRESS)
     args = parser.parse_args()
-    print("| step | median µs | p99 µs |")
-    print("|---|---:|---:|")
-    bench_controller(args.repeats)
-    bench_mink(args.repeats)
+    if args.peer is not None:
+        run_peer(args.peer)
+        return
+    cases = controller_cases(args.repeats)
+    cases.update(mink_cases())
+    results = time_cases(cases, args.repeats)
+    print(f"{args.repeats} steps per case, interleaved rounds; times in µs")
+    print(f"| {'step':<62} | median µs |    p99 µs |")
+    print(f"|{'-' * 64}|----------:|----------:|")
+    for name, result in results.items():
+        row(name, result)
     if not args.skip_node:
         bench_node(args.node_seconds)
 

@@ -20,6 +20,7 @@ in_contact             uint8    –       1 if taxel_count > 0, else 0 (all vect
 
 from __future__ import annotations
 
+import math
 import struct
 from dataclasses import dataclass, field
 
@@ -44,7 +45,9 @@ _DTYPE = record_dtype(
 
 Vector3 = NDArray[np.float64]
 _FIELDS = point_fields(_DTYPE)
-_PACK = struct.Struct("<15dIB").pack  # same packed layout as _DTYPE (itemsize 125)
+_STRUCT = struct.Struct("<15dIB")  # same packed layout as _DTYPE (itemsize 125)
+_PACK = _STRUCT.pack
+_LAYOUT = tuple((f.name, f.offset, f.datatype, f.count) for f in _FIELDS)
 assert struct.calcsize("<15dIB") == _DTYPE.itemsize
 
 
@@ -119,6 +122,28 @@ def msg_to_contact(msg: PointCloud2) -> ContactState:
     Raises:
         ContactMessageError: missing fields, not exactly one point, or non-finite values.
     """
+    if (
+        msg.point_step == _STRUCT.size
+        and len(msg.data) == _STRUCT.size
+        and msg.width * msg.height == 1
+        and not msg.is_bigendian
+        and tuple((f.name, f.offset, f.datatype, f.count) for f in msg.fields) == _LAYOUT
+    ):
+        # Fast path for phri's own layout: one struct unpack instead of a numpy record view.
+        v = _STRUCT.unpack(msg.data)
+        vectors = {name: np.array(v[3 * i : 3 * i + 3]) for i, name in enumerate(_VECTORS)}
+        if not all(math.isfinite(x) for x in v[:15]):
+            bad = [n for n, vec in vectors.items() if not np.all(np.isfinite(vec))]
+            raise ContactMessageError(
+                f"contact state of {msg.header.frame_id!r}: non-finite {', '.join(bad)}"
+            )
+        return ContactState(
+            link=msg.header.frame_id,
+            stamp_ns=stamp_to_ns(msg.header.stamp),
+            in_contact=bool(v[16]),
+            taxel_count=int(v[15]),
+            **vectors,
+        )
     names = {f.name for f in msg.fields}
     missing = [name for name in CONTACT_FIELDS if name not in names]
     if missing:

@@ -123,3 +123,21 @@ def test_contact_with_nan_is_refused() -> None:
     state = ContactState(link="l", stamp_ns=0, in_contact=True, force=np.array([np.nan, 0, 0]))
     with pytest.raises(ContactMessageError, match="force"):
         msg_to_contact(contact_to_msg(state))
+
+
+def test_contact_from_a_float32_publisher_takes_the_generic_path() -> None:
+    names = [*(f"{v}_{a}" for v in ("center", "force", "torque", "region_min", "region_max")
+               for a in "xyz"), "taxel_count", "in_contact"]
+    rec = np.zeros(1, dtype=[(n, "<f4") for n in names])
+    rec["force_y"] = -2.5
+    rec["taxel_count"] = 3
+    rec["in_contact"] = 1
+    msg = PointCloud2(
+        height=1, width=1, point_step=4 * len(names), row_step=4 * len(names),
+        data=rec.tobytes(),
+        fields=[PointField(name=n, offset=4 * i, datatype=PointField.FLOAT32, count=1)
+                for i, n in enumerate(names)],
+    )
+    state = msg_to_contact(msg)
+    assert state.in_contact and state.taxel_count == 3
+    np.testing.assert_allclose(state.force, [0.0, -2.5, 0.0])

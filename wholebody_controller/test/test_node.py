@@ -20,6 +20,7 @@ from std_srvs.srv import Trigger
 from wbc_fake_kinematics import FakeKinematics
 
 from phri_common.contact import ContactState, contact_to_msg
+from phri_common.testing import spin_until
 from wholebody_controller.config import SKIN_LINKS
 from wholebody_controller.messages import msg_to_task_state
 from wholebody_controller.node import WholeBodyControllerNode
@@ -29,8 +30,8 @@ CENTER = np.array([-0.15, 0.0, 0.05])
 
 
 class Harness:
-    def __init__(self, context: object) -> None:
-        self.node = WholeBodyControllerNode(kinematics=FakeKinematics(), context=context)
+    def __init__(self, context: object, node: WholeBodyControllerNode | None = None) -> None:
+        self.node = node or WholeBodyControllerNode(kinematics=FakeKinematics(), context=context)
         self.peer = Node("wbc_test_peer", context=context)
         self.executor = SingleThreadedExecutor(context=context)  # type: ignore[arg-type]
         self.executor.add_node(self.node)
@@ -183,3 +184,79 @@ def test_record_q_dance_and_shutdown_zero(harness: Harness) -> None:
         harness.executor.spin_once(timeout_sec=0.01)
     assert len(harness.left) > count and not nonzero(harness.left)
     assert harness.twists[-1].linear.x == 0.0 and harness.twists[-1].angular.z == 0.0
+
+
+class SimClockHarness(Harness):
+    """The node under ``use_sim_time``; the peer owns /clock (the lock-step simulator's role)."""
+
+    def __init__(self, context: object) -> None:
+        from rosgraph_msgs.msg import Clock
+
+        node = WholeBodyControllerNode(
+            kinematics=FakeKinematics(), context=context,
+            parameter_overrides=[Parameter("use_sim_time", value=True)],
+        )
+        super().__init__(context, node)
+        self.clock_pub = self.peer.create_publisher(Clock, "/clock", 10)
+        self.clock_type = Clock
+        self.sim_ns = 1_000_000_000
+
+    def advance(self, seconds: float, inputs: bool, force: np.ndarray | None = None) -> None:
+        """Advance sim time in 10 ms steps (waiting until the node sees each), publishing the
+        inputs at every step if asked (waiting until they arrived)."""
+        node = self.node
+        for _ in range(round(seconds / 0.01)):
+            self.sim_ns += 10_000_000
+            msg = self.clock_type()
+            msg.clock.sec, msg.clock.nanosec = divmod(self.sim_ns, 1_000_000_000)
+            self.clock_pub.publish(msg)
+            now = self.sim_ns * 1e-9
+
+            def clock_seen(now: float = now) -> bool:
+                return abs(node.now_s() - now) < 1e-9
+
+            def inputs_seen(now: float = now) -> bool:
+                return node.odom_time == now and min(node.contact_time.values()) == now
+
+            assert spin_until(self.executor, clock_seen, 5.0)
+            if inputs:
+                self.publish_inputs(force)
+                assert spin_until(self.executor, inputs_seen, 5.0)
+            # let the timer run this step's control cycle
+            spin_until(self.executor, lambda: False, 0.005)
+
+    def spin(self, wall_seconds: float) -> None:
+        spin_until(self.executor, lambda: False, wall_seconds)
+
+
+@pytest.mark.ros
+def test_staleness_follows_sim_time_not_the_wall_clock(ros_context: object) -> None:
+    h = SimClockHarness(ros_context)
+    try:
+        node = h.node
+        force = np.array([0.0, 0.0, 12.0])
+        # Sim time advancing with fresh inputs → commands.
+        h.advance(0.5, inputs=True, force=force)
+        assert node.good_cycles > 5 and nonzero(h.left)
+        assert abs(node.now_s() - h.sim_ns * 1e-9) < 1e-9, "node clock follows /clock"
+        # The host stalls for 3 contact timeouts of wall time while sim time stands still: no
+        # input is stale in sim time, so no zero cycle (the wall clock must not matter).
+        zero_before = node.zero_cycles
+        h.spin(0.3)
+        assert node.stale_reason(node.now_s()) is None
+        h.advance(0.02, inputs=True, force=force)
+        assert node.zero_cycles == zero_before and nonzero(h.left)
+        # Inputs stop while sim time runs on: zero once sim time passes the timeout (0.1 s),
+        # i.e. within one control period (10 ms) of it.
+        good_before = node.good_cycles
+        h.advance(0.08, inputs=False)
+        assert node.zero_cycles == zero_before, "still within the timeout in sim time"
+        h.advance(0.04, inputs=False)
+        assert node.zero_cycles > zero_before and not nonzero(h.left)
+        assert h.twists[-1].linear.x == 0.0 and h.twists[-1].angular.z == 0.0
+        assert node.good_cycles - good_before <= 10
+        # Inputs come back → commands resume.
+        h.advance(0.2, inputs=True, force=force)
+        assert nonzero(h.left)
+    finally:
+        h.close()

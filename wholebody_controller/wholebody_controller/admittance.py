@@ -51,31 +51,72 @@ class Admittance:
 
     The first three entries are translation [m] / [m/s], the last three rotation [rad] / [rad/s]
     (a rotation vector, see :mod:`wholebody_controller.controller`).
+
+    The state is kept as 12 Python floats: the control step reads and writes it entry by entry
+    (:meth:`step_f`), where a numpy call per 12-vector would cost more than the arithmetic. With
+    diagonal Λ, D, K (every paper set) the axes are decoupled — Φ and Γ are zero outside the
+    (x̃_k, ẋ̃_k) pairs — and one step is two multiply-adds per entry; other gains use the full
+    matrices.
     """
 
     def __init__(self, inertia: Array, damping: Array, stiffness: Array, dt: float) -> None:
         self._phi, self._gamma = discretise(inertia, damping, stiffness, dt)
-        self._state = np.zeros(12)
         self.dt = dt
+        self._x = [0.0] * 6
+        self._v = [0.0] * 6
+        # Per-axis coefficient lists (Φ_xx, Φ_xv, Γ_x, Φ_vx, Φ_vv, Γ_v) when exactly decoupled.
+        mask = np.zeros((12, 18), dtype=bool)
+        for k in range(6):
+            for row in (k, k + 6):
+                mask[row, [k, k + 6, 12 + k]] = True
+        full = np.hstack([self._phi, self._gamma])
+        self._axes: tuple[list[float], ...] | None = None
+        if not np.any(full[~mask]):
+            ax = np.arange(6)
+            self._axes = tuple(
+                full[rows, cols].tolist()
+                for rows, cols in ((ax, ax), (ax, ax + 6), (ax, ax + 12),
+                                   (ax + 6, ax), (ax + 6, ax + 6), (ax + 6, ax + 12))
+            )
 
     @property
     def deflection(self) -> Array:
-        """x̃ (14): [m, m, m, rad, rad, rad]."""
-        return self._state[0:6]
+        """x̃ (14): [m, m, m, rad, rad, rad] (a copy)."""
+        return np.array(self._x)
 
     @property
     def deflection_velocity(self) -> Array:
-        """ẋ̃: [m/s, …, rad/s]."""
-        return self._state[6:12]
+        """ẋ̃: [m/s, …, rad/s] (a copy)."""
+        return np.array(self._v)
+
+    @property
+    def state_f(self) -> tuple[list[float], list[float]]:
+        """``(x̃, ẋ̃)`` as the live float lists (read-only by convention; for the control step)."""
+        return self._x, self._v
 
     def step(self, wrench: Array) -> None:
         """Advance one period with the wrench ``w`` [N, N·m] held constant over it."""
-        self._state = self._phi @ self._state + self._gamma @ wrench
+        self.step_f(np.asarray(wrench, dtype=np.float64).tolist())
+
+    def step_f(self, wrench: list[float]) -> None:
+        """:meth:`step` with the wrench as 6 floats."""
+        x, v = self._x, self._v
+        if self._axes is not None:
+            pxx, pxv, gx, pvx, pvv, gv = self._axes
+            self._x = [a * xk + b * vk + c * wk
+                       for a, b, c, xk, vk, wk in zip(pxx, pxv, gx, x, v, wrench, strict=True)]
+            self._v = [a * xk + b * vk + c * wk
+                       for a, b, c, xk, vk, wk in zip(pvx, pvv, gv, x, v, wrench, strict=True)]
+            return
+        state = self._phi @ np.array(x + v) + self._gamma @ np.asarray(wrench, dtype=np.float64)
+        values = state.tolist()
+        self._x, self._v = values[0:6], values[6:12]
 
     def reset(self) -> None:
         """``x̃, ẋ̃ ← 0`` (Algorithm 1, line 10)."""
-        self._state = np.zeros(12)
+        self._x = [0.0] * 6
+        self._v = [0.0] * 6
 
     def zero_deflection(self) -> None:
         """``x̃ ← 0`` keeping ẋ̃: while inactive the reference trails the link, so (14) gives 0."""
-        self._state[0:6] = 0.0
+        self._x = [0.0] * 6

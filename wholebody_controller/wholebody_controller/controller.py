@@ -11,29 +11,31 @@ are for the world rates ``[ẋ, ẏ, ẏaw]`` of q_b = [x, y, yaw] (odom frame);
 ``[ẋ, ẏ] = R(yaw) [v_x, v_y]``, the Jacobian is right-multiplied by ``blockdiag(R(yaw), 1, I)``.
 That rotation preserves ‖u‖, so ε‖u‖² equals ε‖q̇‖² of (23). Base x/y position limits would not be
 boxes in u; they must be infinite (as on the real robot) — yaw limits are allowed.
+
+Speed (design §7: the step must fit well inside 2 ms, beside contact estimation). At this size a
+numpy call costs as much as dozens of float operations, so the step makes few of them: the tasks
+run on plain floats (:meth:`ContactTask.advance`), their outputs stay floats until read
+(:class:`TaskOutput`), targets and weights of all tasks become one array, the Jacobians are
+written in place into one stacked buffer (``point_jacobian(..., out=)`` when the kinematics
+offers it), the base-frame rotation is one product with a 15×15 matrix, and
+:class:`~wholebody_controller.qp.QPBuilder` forms H and g with two products.
+``test/wbc_reference.py`` is the straightforward version the tests compare against (1e-9).
 """
 
 from __future__ import annotations
 
+import inspect
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
-from typing import Protocol
+from typing import NamedTuple, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 from phri_common.contact import ContactState
 from wholebody_controller.config import ControllerConfig
-from wholebody_controller.contact_task import ContactTask, TaskOutput
-from wholebody_controller.qp import (
-    QPError,
-    QPProblem,
-    QPSolver,
-    build_qp,
-    make_solver,
-    velocity_bounds,
-)
+from wholebody_controller.contact_task import TARGET, ContactTask, TaskOutput
+from wholebody_controller.qp import QPBuilder, QPError, QPProblem, QPSolver, make_solver
 
 Array = NDArray[np.float64]
 
@@ -72,9 +74,8 @@ class KinematicsModel(Protocol):
         ...
 
 
-@dataclass(frozen=True)
-class StepResult:
-    """One control cycle's outcome.
+class StepResult(NamedTuple):
+    """One control cycle's outcome (immutable).
 
     Attributes:
         command: u = [v_x, v_y, ω_z (base frame), arm joint velocities] [m/s, rad/s].
@@ -95,8 +96,9 @@ def base_command_to_rates(command: Array, yaw: float) -> Array:
     """Body twist + arm velocities → q̇ (world rates of x, y, yaw)."""
     c, s = math.cos(yaw), math.sin(yaw)
     qdot = np.array(command, dtype=np.float64, copy=True)
-    qdot[0] = c * command[0] - s * command[1]
-    qdot[1] = s * command[0] + c * command[1]
+    vx, vy = qdot[0:2].tolist()
+    qdot[0] = c * vx - s * vy
+    qdot[1] = s * vx + c * vy
     return qdot
 
 
@@ -121,6 +123,12 @@ class WholeBodyController:
         self._robot_position_limits = limits
         self._robot_velocity_limits = np.asarray(kinematics.velocity_limits, dtype=np.float64)
         self._solver_override = solver
+        # point_jacobian(link, point, out=) writes in place (RobotKinematics); optional.
+        try:
+            params = inspect.signature(kinematics.point_jacobian).parameters
+        except (TypeError, ValueError):
+            params = {}  # type: ignore[assignment]
+        self._jacobian_out = "out" in params
         self.config = ControllerConfig()
         self.tasks: list[ContactTask] = []
         self.configure(config or ControllerConfig())
@@ -165,6 +173,14 @@ class WholeBodyController:
             self.solver: QPSolver = self._solver_override
         elif getattr(self, "solver", None) is None or self.solver.name != config.solver:
             self.solver = make_solver(config.solver)
+        rows = 6 * len(tasks)
+        builder = QPBuilder(rows, self.n)
+        builder.set_limits(lower, upper, -vmax, vmax, config.horizon, config.epsilon)
+        self._builder = builder
+        # Jacobian blocks as views (kinematics write into them) and the raw-to-u column map.
+        self._raw_jacobian = np.zeros((rows, self.n))
+        self._jacobian_blocks = [self._raw_jacobian[6 * i : 6 * i + 6] for i in range(len(tasks))]
+        self._base_rotation = np.eye(self.n)
         self.position_lower, self.position_upper = lower, upper
         self.velocity_upper = vmax
         self.velocity_lower = -vmax
@@ -188,44 +204,58 @@ class WholeBodyController:
             QPError: the QP failed.
         """
         q = np.asarray(q, dtype=np.float64)
-        if q.shape != (self.n,) or not np.all(np.isfinite(q)):
+        # q·q is finite for every finite q short of overflow; the exact test only runs otherwise.
+        if q.shape != (self.n,) or (
+            not math.isfinite(float(q @ q)) and not bool(np.all(np.isfinite(q)))
+        ):
             raise ValueError(f"configuration must be {self.n} finite numbers, got {q}")
         kin = self.kinematics
         kin.update(q)
         yaw = float(q[2])
         c, s = math.cos(yaw), math.sin(yaw)
-        outputs: list[TaskOutput] = []
-        jacobians: list[Array] = []
-        for task in self.tasks:
+        thr = self.config.psi_thr
+        jacobian_out = self._jacobian_out
+        targets: list[float] = []
+        weights: list[float] = []
+        outputs = []
+        for task, block in zip(self.tasks, self._jacobian_blocks, strict=True):
             link = task.config.link
             contact = contacts.get(link)
             if contact is None:
-                contact = ContactState.no_contact(link, 0)
+                contact = task.no_contact
             rot, pos = kin.link_pose(link)
-            out = task.update(contact, rot, pos, yaw)
-            outputs.append(out)
-            jacobians.append(kin.point_jacobian(link, out.point))
-        stacked = np.concatenate(jacobians)
-        # World base rates → base-frame twist (module docstring).
-        stacked[:, 0:2] = stacked[:, 0:2] @ np.array(((c, -s), (s, c)))
-        targets = [o.target for o in outputs]
-        lower, upper = velocity_bounds(
-            q, self.position_lower, self.position_upper, self.velocity_lower,
-            self.velocity_upper, self.config.horizon,
-        )
-        target = np.concatenate(targets)
-        problem = build_qp(
-            [stacked], [target], [o.psi for o in outputs], self.config.epsilon, lower, upper
-        )
+            step = task.advance(contact, rot.ravel().tolist(), pos.tolist(), c, s)
+            psi = step.psi_raw if step.psi_raw > thr else thr
+            outputs.append(TaskOutput.from_values(link, step.phase, psi, step.psi_raw,
+                                                  step.in_contact, step.values))
+            targets += step.values[TARGET]
+            weights += [2.0 * psi] * 6
+            if jacobian_out:
+                kin.point_jacobian(link, task.point_array, out=block)  # type: ignore[call-arg]
+            else:
+                block[...] = kin.point_jacobian(link, task.point_array)
+        count = len(outputs)
+        data = np.array(targets + weights).reshape(2, 6 * count)
+        target = data[0]
+        doubled_weights = data[1].reshape(-1, 1)
+        # World base rates → base-frame twist (module docstring): J_u = J_q · blockdiag(R(yaw), I).
+        rotation = self._base_rotation
+        rotation[0, 0] = c
+        rotation[0, 1] = -s
+        rotation[1, 0] = s
+        rotation[1, 1] = c
+        builder = self._builder
+        jacobian = builder.jacobian
+        np.matmul(self._raw_jacobian, rotation, out=jacobian)
+        problem = builder.build(q, target, doubled_weights)
         command = self.solver.solve(problem)
-        if not np.isfinite(float(command.sum())):
+        if not math.isfinite(float(command.sum())):
             raise QPError("non-finite command")
-        residual = target - stacked @ command
-        errors = tuple(residual[6 * i : 6 * i + 6] for i in range(len(outputs)))
+        residual = target - jacobian @ command
         return StepResult(
             command=command,
             qdot=base_command_to_rates(command, yaw),
             tasks=tuple(outputs),
-            tracking_errors=errors,
+            tracking_errors=tuple(residual.reshape(count, 6)),
             problem=problem,
         )

@@ -6,12 +6,17 @@ Subscribes ``contacts/<link>`` (contact states), ``/joint_states`` and ``/odom``
 input older than its timeout, a QP failure, or a refused (NaN) input leads to a zero command in
 that cycle; the next good cycle recovers; shutdown publishes zero. See
 ``docs/wholebody_controller.md``.
+
+Time. Input ages are measured with the node's clock (``get_clock()``), the same clock that drives
+the control timer: wall (ROS) time normally, simulation time from ``/clock`` when
+``use_sim_time`` is true. In the simulator's lock-step mode an input is therefore stale only when
+*simulated* time has run past its timeout, never because the host was slow, which keeps runs
+deterministic on a loaded machine.
 """
 
 from __future__ import annotations
 
 import sys
-import time
 from collections.abc import Sequence
 from typing import Any
 
@@ -80,7 +85,8 @@ class WholeBodyControllerNode(Node):
         self.params = declare_parameters(self, specs, self._on_params)
         self.controller = WholeBodyController(self.kinematics, self._config(self.params))
 
-        # Latest inputs and when they arrived (monotonic [s]; -inf = never).
+        self._node_clock = self.get_clock()
+        # Latest inputs and when they arrived (node clock [s]; -inf = never).
         self.contacts: dict[str, ContactState] = {}
         self.contact_time = dict.fromkeys(self.links, -np.inf)
         self.arm_q = np.zeros(12)
@@ -128,6 +134,10 @@ class WholeBodyControllerNode(Node):
             self.controller.configure(config)
 
     # -- inputs ---------------------------------------------------------------------------------
+    def now_s(self) -> float:
+        """The node clock [s] (simulation time under ``use_sim_time``; see the module docstring)."""
+        return self._node_clock.now().nanoseconds * 1e-9
+
     def _refuse(self, what: str, err: Exception) -> None:
         self.rejected_inputs += 1
         self.get_logger().warning(f"refused {what}: {err}", throttle_duration_sec=1.0)
@@ -141,7 +151,7 @@ class WholeBodyControllerNode(Node):
             self._refuse(f"contact state of {link}", err)
             return
         self.contacts[link] = state
-        self.contact_time[link] = time.monotonic()
+        self.contact_time[link] = self.now_s()
 
     def _on_joints(self, msg: JointState) -> None:
         try:
@@ -149,7 +159,7 @@ class WholeBodyControllerNode(Node):
         except InputError as err:
             self._refuse("joint state", err)
             return
-        now = time.monotonic()
+        now = self.now_s()
         for i, name in enumerate(self.arm_joints):
             if name in positions:
                 self.arm_q[i] = positions[name]
@@ -161,7 +171,7 @@ class WholeBodyControllerNode(Node):
         except InputError as err:
             self._refuse("odometry", err)
             return
-        self.odom_time = time.monotonic()
+        self.odom_time = self.now_s()
 
     # -- services -------------------------------------------------------------------------------
     def _record_q_dance(self, _req: Trigger.Request, res: Trigger.Response) -> Trigger.Response:
@@ -192,16 +202,24 @@ class WholeBodyControllerNode(Node):
 
     # -- control cycle --------------------------------------------------------------------------
     def stale_reason(self, now: float) -> str | None:
-        """Why the inputs cannot be used now, or ``None``."""
+        """Why the inputs cannot be used at ``now`` (node clock [s]), or ``None``.
+
+        An input is stale when older than its timeout, or stamped after ``now`` (the clock jumped
+        back, e.g. a simulation reset: the input belongs to another timeline).
+        """
         p = self.params
         contact_timeout = float(p["contact_timeout"])
-        stale_links = [k for k, t in self.contact_time.items() if now - t > contact_timeout]
+        stale_links = [
+            k for k, t in self.contact_time.items() if not 0.0 <= now - t <= contact_timeout
+        ]
         if stale_links:
             return f"stale contact states: {', '.join(stale_links)}"
         joint_age = now - float(np.min(self.arm_time))
-        if joint_age > float(p["joint_state_timeout"]):
+        if not 0.0 <= joint_age <= float(p["joint_state_timeout"]) or now < float(
+            np.max(self.arm_time)
+        ):
             return "stale joint states"
-        if now - self.odom_time > float(p["odom_timeout"]):
+        if not 0.0 <= now - self.odom_time <= float(p["odom_timeout"]):
             return "stale odometry"
         return None
 
@@ -215,7 +233,8 @@ class WholeBodyControllerNode(Node):
     def tick(self) -> None:
         """One control cycle (timer callback)."""
         assert self.controller is not None
-        reason = self.stale_reason(time.monotonic())
+        now_ns = self._node_clock.now().nanoseconds
+        reason = self.stale_reason(now_ns * 1e-9)
         if reason is not None:
             if not self._stale:
                 self.get_logger().warning(f"{reason}: zero command", throttle_duration_sec=1.0)
@@ -239,10 +258,9 @@ class WholeBodyControllerNode(Node):
         self.cmd_pub.publish(command_to_twist(command))
         self.left_pub.publish(arm_command(command[3:9], self.left_joints))
         self.right_pub.publish(arm_command(command[9:15], self.right_joints))
-        stamp = self.get_clock().now().nanoseconds
         frame = str(self.params["world_frame"])
         for task, error in zip(result.tasks, result.tracking_errors, strict=True):
-            self.state_pubs[task.link].publish(task_state_to_msg(task, error, stamp, frame))
+            self.state_pubs[task.link].publish(task_state_to_msg(task, error, now_ns, frame))
         self.good_cycles += 1
 
     def destroy_node(self) -> None:

@@ -19,9 +19,9 @@ printing "Polishing not needed"). Both clip the answer into the bounds.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,9 +33,8 @@ class QPError(RuntimeError):
     """The QP could not be solved (solver status, non-finite data or answer)."""
 
 
-@dataclass(frozen=True)
-class QPProblem:
-    """``min ½ uᵀ H u + gᵀ u`` s.t. ``lower ≤ u ≤ upper``."""
+class QPProblem(NamedTuple):
+    """``min ½ uᵀ H u + gᵀ u`` s.t. ``lower ≤ u ≤ upper`` (immutable)."""
 
     hessian: Array
     gradient: Array
@@ -111,6 +110,84 @@ def build_qp(
     return QPProblem(hessian, gradient, lower, upper)
 
 
+class QPBuilder:
+    """:func:`velocity_bounds` + :func:`build_qp` for a fixed problem size, for the control step.
+
+    Same problem, fewer numpy calls: the stacked Jacobian lives in :attr:`jacobian` (the caller
+    writes the task blocks into it in place), ``H = 2 Jᵀ (Ψ J) + 2ε I`` and ``g = −2 (Ψ J)ᵀ b``
+    are two matrix products on it, and both bound vectors come from one broadcast over a 2×n
+    table. The hessian, gradient and bounds of every :class:`QPProblem` are fresh arrays (a
+    result never changes after it is returned); only the scratch buffers are reused.
+
+    Args:
+        rows: task rows (6 per task).
+        n: decision variables.
+    """
+
+    def __init__(self, rows: int, n: int) -> None:
+        self.rows, self.n = rows, n
+        self.jacobian = np.zeros((rows, n))
+        """Stacked task Jacobians in the decision variable's coordinates (written by the caller)."""
+        self._weighted = np.zeros((rows, n))
+        self._eps_eye = np.zeros((n, n))
+        self._position = np.zeros((2, n))
+        self._velocity_lower = np.zeros((2, n))
+        self._velocity_upper = np.zeros((2, n))
+        self._horizon = 1.0
+
+    def set_limits(
+        self,
+        position_lower: Array,
+        position_upper: Array,
+        velocity_lower: Array,
+        velocity_upper: Array,
+        horizon: float,
+        epsilon: float,
+    ) -> None:
+        """Limits of (22) (see :func:`velocity_bounds`) and ε of (23).
+
+        Raises:
+            ValueError: ``position_lower > position_upper`` or ``velocity_lower > velocity_upper``
+                somewhere (the per-step bounds are then consistent by construction).
+        """
+        if np.any(position_lower > position_upper) or np.any(velocity_lower > velocity_upper):
+            raise ValueError("QP limits need lower ≤ upper")
+        self._position[0], self._position[1] = position_lower, position_upper
+        self._velocity_lower[:] = velocity_lower
+        self._velocity_upper[:] = velocity_upper
+        self._horizon = float(horizon)
+        self._eps_eye[...] = np.diag(np.full(self.n, 2.0 * epsilon))
+
+    def build(self, q: Array, target: Array, doubled_weights: Array) -> QPProblem:
+        """(23) at configuration q with the current :attr:`jacobian`.
+
+        Args:
+            q: positions (n) [rad] / [m].
+            target: stacked b_i (rows) [m/s, rad/s].
+            doubled_weights: 2ψ_i for each row, shape (rows, 1) (the 2 of ``H = 2(…)``
+                folded in, which saves a pass over H).
+
+        Raises:
+            QPError: non-finite data.
+        """
+        jac, weighted = self.jacobian, self._weighted
+        np.multiply(jac, doubled_weights, out=weighted)  # 2Ψ J
+        hessian = jac.T @ weighted
+        hessian += self._eps_eye
+        gradient = target @ weighted
+        np.negative(gradient, out=gradient)
+        # One scalar per array catches NaN/inf anywhere in the data.
+        if not math.isfinite(float(np.add.reduce(hessian, None)) + float(np.add.reduce(gradient))):
+            raise QPError("QP data is not finite")
+        # (22): clip((q_l − q)/h, q̇_l, q̇_u) ≤ u ≤ clip((q_u − q)/h, q̇_l, q̇_u). The limits are
+        # ordered (set_limits) and monotone maps keep the order, so lower ≤ upper always.
+        bounds = np.subtract(self._position, q)
+        np.divide(bounds, self._horizon, out=bounds)
+        np.maximum(bounds, self._velocity_lower, out=bounds)
+        np.minimum(bounds, self._velocity_upper, out=bounds)
+        return QPProblem(hessian, gradient, bounds[0], bounds[1])
+
+
 def kkt_residual(problem: QPProblem, u: Array) -> float:
     """Optimality residual of a box QP: ‖u − Π(u − ∇f(u))‖_∞ plus bound violation.
 
@@ -136,10 +213,16 @@ class QPSolver(Protocol):
         ...
 
 
-def _finish(problem: QPProblem, u: Array, name: str) -> Array:
-    if u is None or not np.all(np.isfinite(u)):
+def _finish(problem: QPProblem, u: Array | None, name: str) -> Array:
+    if u is None:
+        raise QPError(f"{name} returned no solution")
+    x = np.asarray(u, dtype=np.float64)
+    # One reduction catches NaN/inf (a sum of finite values near the bounds cannot overflow).
+    if not math.isfinite(float(np.add.reduce(x))):
         raise QPError(f"{name} returned a non-finite solution")
-    return np.clip(np.asarray(u, dtype=np.float64), problem.lower, problem.upper)
+    # Clip into the bounds: two ufunc calls instead of np.clip's Python wrapper.
+    out = np.maximum(x, problem.lower)
+    return np.minimum(out, problem.upper, out=out)
 
 
 class DaqpSolver:
