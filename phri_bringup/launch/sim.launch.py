@@ -1,0 +1,34 @@
+"""Simulated phri: the MuJoCo robot, skins and person, contact estimation, the whole-body
+controller, robot_state_publisher, and optionally rviz.
+
+    ros2 launch phri_bringup sim.launch.py scenario:=waltz [seed:=0] [rviz:=true]
+
+The nodes, executables and parameter files come from ``phri_bringup.graph.sim_graph`` — the
+same description ``phri sim`` runs in one process — so the two cannot drift. Parameters:
+``config/<scenario>.yaml`` (docs/bringup.md).
+"""
+
+from launch import LaunchDescription
+from launch.actions import DeclareLaunchArgument, OpaqueFunction
+from launch.substitutions import LaunchConfiguration
+from launch_ros.actions import Node
+
+from phri_bringup.graph import launch_node_kwargs, robot_description_urdf, sim_graph
+
+
+def _nodes(context):
+    scenario = LaunchConfiguration("scenario").perform(context)
+    seed = int(LaunchConfiguration("seed").perform(context))
+    rviz = LaunchConfiguration("rviz").perform(context).lower() in ("true", "1", "yes")
+    urdf = robot_description_urdf()
+    return [Node(**launch_node_kwargs(spec, urdf)) for spec in sim_graph(scenario, seed, rviz)]
+
+
+def generate_launch_description():
+    return LaunchDescription([
+        DeclareLaunchArgument("scenario", default_value="waltz",
+                              description="centring, sliding, wholebody or waltz"),
+        DeclareLaunchArgument("seed", default_value="0", description="skin noise seed"),
+        DeclareLaunchArgument("rviz", default_value="false", description="start rviz2"),
+        OpaqueFunction(function=_nodes),
+    ])

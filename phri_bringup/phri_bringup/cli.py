@@ -1,0 +1,266 @@
+"""The ``phri`` command: run a scenario headless and get a recording, plots, video and metrics.
+
+::
+
+    phri sim --scenario waltz --out runs/waltz     # all of it (recording, plots, video, metrics)
+    phri sim --scenario centring --short --no-video
+    phri sim --scenario waltz --foxglove          # live view on ws://localhost:8765
+    phri plot runs/waltz                          # panels again from the recording
+    phri video runs/waltz                         # video again from the recording
+    phri params --check | --write                 # parameter files vs the paper's values
+    phri graph sim|real                           # the node graph the launch files start
+    phri layouts DIR                              # nominal skin layout files for real.launch.py
+
+Exit codes: 0 done, 1 run failed, 2 bad arguments or parameters, 130 stopped by Ctrl-C/SIGTERM
+(the robot was sent zero velocity and the recording was closed either way).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+SCENARIO_CHOICES = ("centring", "sliding", "wholebody", "waltz")
+
+
+def _log(text: str) -> None:
+    print(f"phri: {text}", file=sys.stderr, flush=True)
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="phri", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    sim = sub.add_parser("sim", help="run a scenario through every node, lock-step, headless")
+    sim.add_argument("--scenario", default="waltz",
+                     help=f"one of {', '.join(SCENARIO_CHOICES)} (default waltz)")
+    sim.add_argument("--out", default=None,
+                     help="output directory (default runs/<scenario>)")
+    sim.add_argument("--duration", type=float, default=None, help="simulated length [s]")
+    sim.add_argument("--short", action="store_true", help="the shortened CI length")
+    sim.add_argument("--seed", type=int, default=0, help="skin noise seed (same seed → same run)")
+    sim.add_argument("--params", default=None,
+                     help="parameter file instead of config/<scenario>.yaml")
+    sim.add_argument("--record", default=None, metavar="DIR",
+                     help="recording directory (default OUT/recording)")
+    sim.add_argument("--no-record", action="store_true",
+                     help="no recording (and so no plots, no video)")
+    sim.add_argument("--skin-record-rate", type=float, default=10.0, metavar="HZ",
+                     help="taxel arrays kept in the recording per second of sim time "
+                          "(0 = every frame; default 10)")
+    sim.add_argument("--no-plots", action="store_true", help="skip the figure panels")
+    sim.add_argument("--video", dest="video", action="store_true", default=True,
+                     help="render the MP4 (default)")
+    sim.add_argument("--no-video", dest="video", action="store_false", help="skip the MP4")
+    sim.add_argument("--foxglove", action="store_true",
+                     help="serve a live Foxglove WebSocket (localhost) and run in real time")
+    sim.add_argument("--port", type=int, default=8765, help="Foxglove WebSocket port")
+    sim.add_argument("--realtime", type=float, default=None, metavar="FACTOR",
+                     help="pace the run to FACTOR × real time (default 1 with --foxglove, "
+                          "else as fast as possible)")
+
+    plot = sub.add_parser("plot", help="figure panels (PNG) and key numbers from a recording")
+    plot.add_argument("run", help="run directory, recording directory or .mcap file")
+    plot.add_argument("--out", default=None, help="directory for the PNGs (default RUN/plots)")
+    plot.add_argument("--scenario", default=None, help="waltz adds the waltz panels "
+                      "(default: read from RUN/metrics.json, else guessed)")
+
+    video = sub.add_parser("video", help="MP4 of a recording, rendered offscreen")
+    video.add_argument("run", help="run directory, recording directory or .mcap file")
+    video.add_argument("--out", default=None, help="MP4 path (default RUN/video.mp4)")
+    video.add_argument("--fps", type=float, default=25.0)
+    video.add_argument("--size", default="1024x576", help="WIDTHxHEIGHT")
+
+    params = sub.add_parser("params", help="check or regenerate config/*.yaml")
+    group = params.add_mutually_exclusive_group()
+    group.add_argument("--check", action="store_true", help="(default) report problems")
+    group.add_argument("--write", action="store_true", help="rewrite from phri_sim.scenarios")
+
+    graph = sub.add_parser("graph", help="print the node graph the launch files start")
+    graph.add_argument("which", choices=("sim", "real"), nargs="?", default="sim")
+    graph.add_argument("--scenario", default="waltz")
+
+    layouts = sub.add_parser("layouts", help="write nominal skin layout files (real robot)")
+    layouts.add_argument("directory")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point ``phri``."""
+    args = _parser().parse_args(argv)
+    handler = {"sim": cmd_sim, "plot": cmd_plot, "video": cmd_video, "params": cmd_params,
+               "graph": cmd_graph, "layouts": cmd_layouts}[args.command]
+    try:
+        code = handler(args)
+    except (ValueError, FileNotFoundError) as err:
+        _log(f"error: {err}")
+        code = 2
+    if argv is None:
+        sys.exit(code)
+    return code
+
+
+def _progress_printer(start: float) -> Any:
+    def report(t: float, total: float) -> None:
+        wall = time.perf_counter() - start
+        if round(t) % 5 == 0 or t >= total - 1e-6:
+            _log(f"sim t = {t:5.1f} / {total:.1f} s   real-time factor {t / max(wall, 1e-9):4.2f}"
+                 f"   wall {wall:5.1f} s")
+    return report
+
+
+def cmd_sim(args: argparse.Namespace) -> int:
+    """``phri sim``: run, then plots and video from the recording."""
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    from phri_bringup.graph import canonical_scenario, scenario_file
+    from phri_bringup.observer import RecordingSink, Sink
+    from phri_bringup.session import StopFlag, run_session
+
+    name = canonical_scenario(args.scenario)
+    out = Path(args.out or f"runs/{scenario_file(name)}")
+    out.mkdir(parents=True, exist_ok=True)
+    record_dir = None if args.no_record else Path(args.record or out / "recording")
+    sinks: list[Sink] = []
+    if record_dir is not None:
+        if (record_dir / "metadata.yaml").exists():
+            (record_dir / "metadata.yaml").unlink()
+        sinks.append(RecordingSink(str(record_dir), skin_rate_hz=args.skin_record_rate))
+    pace = args.realtime
+    if args.foxglove:
+        from phri_bringup.live import FoxgloveSink
+
+        live = FoxgloveSink(port=args.port)
+        sinks.append(live)
+        pace = pace if pace is not None else 1.0
+        _log(f"Foxglove live view: open {live.url} in Foxglove or Lichtblick "
+             "(3D panel, display frame 'odom')")
+    stop = StopFlag()
+    previous = {sig: signal.signal(sig, stop.set) for sig in (signal.SIGINT, signal.SIGTERM)}
+    start = time.perf_counter()
+    _log(f"scenario {name}: running lock-step (Ctrl-C stops cleanly) → {out}")
+    try:
+        result = run_session(name, sinks=sinks, params_file=args.params, duration=args.duration,
+                             short=args.short, seed=args.seed, pace=pace,
+                             progress=_progress_printer(start), stop=stop)
+    except Exception as err:
+        _log(f"run failed: {type(err).__name__}: {err}")
+        return 2 if isinstance(err, ValueError) else 1
+    finally:
+        for sig, h in previous.items():
+            signal.signal(sig, h)
+    run_wall = time.perf_counter() - start
+    _log(f"zero velocity published at exit: {'yes' if result.zero_at_exit else 'NO'}")
+    if record_dir is not None:
+        _log(f"recording: {record_dir} (ros2 bag info {record_dir}; Foxglove/Lichtblick: open "
+             f"{record_dir / 'recording_0.mcap'})")
+    if result.interrupted:
+        _log("stopped before the end: recording closed, no metrics, plots or video")
+        return 130
+    metrics = dict(result.metrics)
+    metrics["zero_velocity_at_exit"] = result.zero_at_exit
+    metrics["seed"] = args.seed
+    summary: dict[str, Any] = {"run_wall_time": run_wall}
+    if record_dir is not None and not args.no_plots:
+        from phri_bringup.plots import make_plots
+
+        files, numbers = make_plots(record_dir, out / "plots", scenario=name)
+        summary["plots"] = numbers
+        _log(f"plots: {len(files)} panels in {out / 'plots'}")
+    if record_dir is not None and args.video:
+        from phri_bringup.video import VideoUnavailable, render_video
+
+        t_video = time.perf_counter()
+        try:
+            path = render_video(record_dir, out / f"{scenario_file(name)}.mp4")
+            _log(f"video: {path} ({time.perf_counter() - t_video:.0f} s to render)")
+        except VideoUnavailable as err:
+            _log(f"video skipped: {err}")
+    metrics["bringup"] = summary
+    (out / "metrics.json").write_text(json.dumps(metrics, indent=2, allow_nan=True) + "\n",
+                                      encoding="utf-8")
+    total = time.perf_counter() - start
+    _log(f"metrics: {out / 'metrics.json'}; total wall time {total:.0f} s")
+    return 0
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    from phri_bringup.plots import make_plots
+
+    run = Path(args.run)
+    scenario = args.scenario
+    metrics = run / "metrics.json"
+    if scenario is None and metrics.is_file():
+        scenario = json.loads(metrics.read_text(encoding="utf-8")).get("scenario")
+    out = Path(args.out) if args.out else (run if run.is_dir() else run.parent) / "plots"
+    files, numbers = make_plots(run, out, scenario=scenario)
+    for f in files:
+        print(f)
+    print(json.dumps(numbers, indent=2))
+    return 0
+
+
+def cmd_video(args: argparse.Namespace) -> int:
+    os.environ.setdefault("MUJOCO_GL", "egl")
+    from phri_bringup.video import VideoOptions, VideoUnavailable, render_video
+
+    run = Path(args.run)
+    width, height = (int(x) for x in args.size.lower().split("x"))
+    out = Path(args.out) if args.out else (run if run.is_dir() else run.parent) / "video.mp4"
+    try:
+        print(render_video(run, out, VideoOptions(width=width, height=height, fps=args.fps)))
+    except VideoUnavailable as err:
+        _log(f"video skipped: {err}")
+        return 3
+    return 0
+
+
+def cmd_params(args: argparse.Namespace) -> int:
+    import phri_bringup.params as params
+
+    if args.write:
+        for path in params.write_files():
+            print(path)
+        return 0
+    problems = params.check_files()
+    for p in problems:
+        print(p)
+    if not problems:
+        print("parameter files agree with the paper's values and the nodes' declarations")
+    return 1 if problems else 0
+
+
+def cmd_graph(args: argparse.Namespace) -> int:
+    from phri_bringup.graph import real_graph, sim_graph
+
+    nodes = sim_graph(args.scenario) if args.which == "sim" else real_graph()
+    for n in nodes:
+        ns = f"/{n.namespace}" if n.namespace else ""
+        files = ", ".join(f"config/{f}.yaml" for f in n.parameter_files) or "-"
+        print(f"{ns}/{n.name}: {n.package}/{n.executable}  params: {files} {n.parameters or ''}"
+              f"{'  [in-process in phri sim]' if n.in_process else ''}")
+    return 0
+
+
+def cmd_layouts(args: argparse.Namespace) -> int:
+    from phri_description.description import robot_description
+    from phri_sim.skin import layout_for_patch
+    from skin_driver.layout import save_layout
+
+    out = Path(args.directory)
+    out.mkdir(parents=True, exist_ok=True)
+    for patch in robot_description().patches:
+        path = out / f"{patch.name}.yaml"
+        save_layout(layout_for_patch(patch), path)
+        print(path)
+    return 0
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,85 @@
+"""Link frames of the robot from joint states and odometry (pure: MuJoCo, no rclpy).
+
+The recorder writes them as ``/tf`` and the Foxglove bridge streams them, so a recording or a live
+view shows the robot without a ROS robot state publisher. The transforms come from the same
+MuJoCo model the simulator and the controller use (phri_description, one description).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+
+WORLD_FRAME = "odom"
+"""Name of MuJoCo's world body as a TF frame."""
+
+
+@dataclass(frozen=True)
+class Transform:
+    """Child frame in its parent: translation [m], rotation quaternion (w, x, y, z)."""
+
+    parent: str
+    child: str
+    translation: tuple[float, float, float]
+    rotation: tuple[float, float, float, float]
+
+
+class RobotFrames:
+    """Forward kinematics of every robot link (parent-relative transforms, the TF tree)."""
+
+    def __init__(self) -> None:
+        from phri_sim.scene import robot_spec
+
+        self.model = robot_spec().compile()
+        self.data = mujoco.MjData(self.model)
+        m = self.model
+        self.joint_qpos = {m.joint(j).name: int(m.jnt_qposadr[j]) for j in range(m.njnt)}
+        self.names = [WORLD_FRAME if b == 0 else m.body(b).name for b in range(m.nbody)]
+        self.parents = [int(m.body_parentid[b]) for b in range(m.nbody)]
+
+    def set_state(self, joint_names: Sequence[str], positions: Sequence[float],
+                  base: Sequence[float] | None = None) -> None:
+        """Set joint positions by name [rad] and the base pose (x [m], y [m], yaw [rad]).
+        Unknown names are ignored (a joint state may carry other joints)."""
+        for name, value in zip(joint_names, positions, strict=False):
+            adr = self.joint_qpos.get(name)
+            if adr is not None and np.isfinite(value):
+                self.data.qpos[adr] = float(value)
+        if base is not None:
+            for name, value in zip(("base_x", "base_y", "base_yaw"), base, strict=True):
+                if np.isfinite(value):
+                    self.data.qpos[self.joint_qpos[name]] = float(value)
+
+    def transforms(self) -> list[Transform]:
+        """Every body in its parent body's frame at the current state."""
+        mujoco.mj_kinematics(self.model, self.data)
+        out = []
+        xpos, xmat = self.data.xpos, self.data.xmat.reshape(-1, 3, 3)
+        quat = np.zeros(4)
+        for b in range(1, self.model.nbody):
+            p = self.parents[b]
+            rot = xmat[p].T @ xmat[b]
+            pos = xmat[p].T @ (xpos[b] - xpos[p])
+            mujoco.mju_mat2Quat(quat, rot.reshape(9))
+            out.append(Transform(self.names[p], self.names[b],
+                                 (float(pos[0]), float(pos[1]), float(pos[2])),
+                                 (float(quat[0]), float(quat[1]), float(quat[2]),
+                                  float(quat[3]))))
+        return out
+
+    def world_pose(self, link: str) -> tuple[FloatArray, FloatArray]:
+        """(⁰R 3×3, ⁰p [m]) of a link at the state last passed to :meth:`transforms`."""
+        b = self.model.body(link).id
+        return (np.asarray(self.data.xmat[b].reshape(3, 3), dtype=np.float64),
+                np.asarray(self.data.xpos[b], dtype=np.float64))
+
+
+def yaw_from_quaternion(w: float, x: float, y: float, z: float) -> float:
+    """Yaw [rad] of a quaternion (rotation about z of a planar pose)."""
+    return float(np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)))

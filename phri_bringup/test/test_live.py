@@ -1,0 +1,61 @@
+"""The Foxglove live view: the server starts on localhost only and advertises its channels."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+
+def _listening_addresses(port: int) -> set[str]:
+    """Local addresses (hex, /proc/net/tcp) listening on ``port``."""
+    out = set()
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        path = Path(table)
+        if not path.exists():
+            continue
+        for line in path.read_text().splitlines()[1:]:
+            parts = line.split()
+            addr, hexport = parts[1].split(":")
+            if int(hexport, 16) == port and parts[3] == "0A":
+                out.add(addr)
+    return out
+
+
+def test_server_starts_on_localhost_and_advertises_channels() -> None:
+    websockets = pytest.importorskip("websockets.sync.client")
+    from phri_bringup.live import FoxgloveSink
+
+    sink = FoxgloveSink(port=0)
+    try:
+        assert sink.port > 0
+        assert _listening_addresses(sink.port) == {"0100007F"}  # 127.0.0.1 only
+        topics: set[str] = set()
+        protocols = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
+        with websockets.connect(f"ws://127.0.0.1:{sink.port}", subprotocols=protocols,
+                                open_timeout=5) as ws:
+            for _ in range(10):
+                msg = ws.recv(timeout=5)
+                if isinstance(msg, str):
+                    doc = json.loads(msg)
+                    if doc.get("op") == "advertise":
+                        topics |= {c["topic"] for c in doc["channels"]}
+                if set(sink.channel_topics()) <= topics:
+                    break
+        assert set(sink.channel_topics()) <= topics
+    finally:
+        sink.close()
+
+
+def test_arrow_orientation_turns_x_onto_the_direction() -> None:
+    import numpy as np
+    from scipy.spatial.transform import Rotation
+
+    from phri_bringup.live import arrow_orientation
+
+    rng = np.random.default_rng(3)
+    for d in [*rng.normal(size=(20, 3)), np.array([-1.0, 0, 0]), np.array([2.0, 0, 0])]:
+        w, x, y, z = arrow_orientation(d)
+        rotated = Rotation.from_quat([x, y, z, w]).apply([1.0, 0.0, 0.0])
+        assert np.allclose(rotated, d / np.linalg.norm(d), atol=1e-9)

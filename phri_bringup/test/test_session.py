@@ -1,0 +1,169 @@
+"""The in-process bringup: every scenario starts and stops cleanly, the recording holds every
+documented topic with its type, the panels come from it, a push moves the robot, NaN input
+leaves every node running. (The launch_testing twins are in test_launch_sim.py.)"""
+
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from phri_bringup.graph import SIM_TOPICS, TF_TOPIC
+from phri_bringup.observer import RecordingSink
+from phri_bringup.session import StopFlag, run_session
+
+pytestmark = pytest.mark.ros
+
+
+@pytest.mark.parametrize("scenario", ["centring", "sliding", "wholebody", "waltz"])
+def test_every_scenario_starts_and_stops_with_zero_velocity(ros_context: Any,
+                                                            scenario: str) -> None:
+    threads_before = threading.active_count()
+    result = run_session(scenario, duration=0.3, context=ros_context)
+    assert result.zero_at_exit
+    assert not result.interrupted
+    assert result.metrics["duration"] == pytest.approx(0.3)
+    assert result.metrics["commands_refused"] == 0
+    # Commands flowed every control period, then the final zero on top.
+    assert result.message_counts["/cmd_vel"] >= 30
+    assert threading.active_count() <= threads_before + 1
+
+
+def test_stop_request_ends_early_with_zero_velocity(ros_context: Any) -> None:
+    stop = StopFlag()
+    seen: list[float] = []
+
+    def progress(t: float, total: float) -> None:
+        seen.append(t)
+        stop.set()
+
+    result = run_session("centring", duration=30.0, context=ros_context, stop=stop,
+                         progress=progress)
+    assert result.interrupted and result.zero_at_exit
+    assert len(seen) == 1 and seen[0] == pytest.approx(1.0)
+
+
+@pytest.fixture(scope="module")
+def recorded_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Any]:
+    """A 2.5 s centring run (the press starts at 1 s), recorded with every taxel frame."""
+    from phri_common.testing import ros_context_scope
+
+    directory = tmp_path_factory.mktemp("run") / "recording"
+    with ros_context_scope() as context:
+        result = run_session("centring", duration=2.5, context=context,
+                             sinks=[RecordingSink(str(directory), skin_rate_hz=0.0)])
+    return directory, result
+
+
+def test_recording_holds_every_documented_topic_with_its_type(recorded_run: Any) -> None:
+    from rosbags.highlevel import AnyReader
+
+    directory, result = recorded_run
+    with AnyReader([directory]) as reader:
+        topics = {c.topic: c.msgtype for c in reader.connections}
+        for spec in (*SIM_TOPICS, TF_TOPIC):
+            assert topics.get(spec.name) == spec.type, spec.name
+        counts = {c.topic: c.msgcount for c in reader.connections}
+        # 100 Hz sim topics over 2.5 s; the runner may thin out the frames of an untouched
+        # skin patch (and so its contact states), so those are only required at 10 Hz.
+        for name in ("/joint_states", "/odom", "/cmd_vel"):
+            assert counts[name] >= 240, name
+        for patch in ("left_upper_arm", "left_forearm", "right_forearm"):
+            assert counts[f"/skin/{patch}/taxels"] >= 24, patch
+            assert counts[f"/contacts/{patch}_link"] >= 24, patch
+        # Every message deserialises with rosbags; the last commands are the final zeros.
+        last: dict[str, Any] = {}
+        for conn, _, raw in reader.messages():
+            msg = reader.deserialize(raw, conn.msgtype)
+            if conn.topic in ("/cmd_vel", "/left/forward_velocity_controller/commands",
+                              "/right/forward_velocity_controller/commands"):
+                last[conn.topic] = msg
+    twist = last["/cmd_vel"]
+    assert [twist.linear.x, twist.linear.y, twist.angular.z] == [0.0, 0.0, 0.0]
+    for arm in ("left", "right"):
+        data = np.asarray(last[f"/{arm}/forward_velocity_controller/commands"].data)
+        assert data.shape == (6,) and np.all(data == 0.0)
+    assert result.zero_at_exit
+
+
+def test_recording_decodes_with_mcap_ros2_too(recorded_run: Any) -> None:
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    directory, _ = recorded_run
+    with (directory / "recording_0.mcap").open("rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        for _, channel, _, msg in reader.iter_decoded_messages(topics=["/tf"]):
+            frames = {t.child_frame_id for t in msg.transforms}
+            assert {"base_link", "left_forearm_link", "right_wrist_3_link"} <= frames
+            assert channel.message_encoding == "cdr"
+            break
+        else:
+            pytest.fail("no /tf message")
+
+
+def test_push_moves_the_robot_and_plots_show_it(recorded_run: Any, tmp_path: Path) -> None:
+    """The right forearm is pressed from 1 s on: the estimated force rises to the order of the
+    15 N press, the robot yields (arm joints move, within the 0.15 rad/s bound) and ψ rises."""
+    from phri_bringup.plots import make_plots, read_run
+
+    directory, _ = recorded_run
+    data = read_run(directory)
+    link = "right_forearm_link"
+    force = np.linalg.norm(data.force[link].v, axis=1)
+    assert force[data.force[link].t < 0.9].max() < 0.5
+    assert 5.0 < force.max() < 30.0
+    qd = np.abs(data.joint_velocity.v)
+    assert qd[data.joint_velocity.t < 0.9].max() < 1e-3
+    assert 1e-3 < qd[data.joint_velocity.t > 1.5].max() <= 0.15 + 0.02
+    assert data.psi[link].v.max() > 1e-3
+    files, numbers = make_plots(directory, tmp_path / "plots", scenario="centring")
+    names = {f.name for f in files}
+    assert {"contact_force.png", "contact_torque.png", "contact_centre.png", "priority_psi.png",
+            "arm_joint_velocities.png", "base_velocity.png"} == names
+    for f in files:
+        assert f.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and f.stat().st_size > 10_000
+    assert numbers["links"][link]["peak_force"] == pytest.approx(force.max())
+    assert (tmp_path / "plots" / "plots.json").is_file()
+
+
+def test_nan_input_leaves_every_node_running(ros_context: Any) -> None:
+    """NaN taxel frames and a NaN velocity command mid-run are refused; the run goes on and
+    ends with zero velocity (cartesian_controllers' test_nans, in process)."""
+    from geometry_msgs.msg import Twist
+    from rclpy.node import Node
+    from sensor_msgs.msg import PointCloud2
+
+    from phri_common.taxels import TaxelCloudEncoder
+
+    runs: list[Any] = []
+    injector = Node("nan_injector", context=ros_context)
+    skin_pub = injector.create_publisher(PointCloud2, "skin/right_forearm/taxels", 10)
+    cmd_pub = injector.create_publisher(Twist, "/cmd_vel", 10)
+
+    def inspect(run: Any) -> None:
+        runs.append(run)
+
+    def inject(t: float, total: float) -> None:
+        layout = runs[0].bridge.sim.patches["right_forearm"].layout
+        enc = TaxelCloudEncoder(layout.positions, layout.normals, layout.link)
+        forces = np.full(layout.positions.shape[0], np.nan)
+        skin_pub.publish(enc.encode(forces, runs[0].bridge.stamp_ns))
+        cmd_pub.publish(Twist())
+        bad = Twist()
+        bad.linear.x = float("nan")
+        cmd_pub.publish(bad)
+
+    try:
+        result = run_session("centring", duration=2.0, context=ros_context, inspect=inspect,
+                             progress=inject)
+    finally:
+        injector.destroy_node()
+    run = runs[0]
+    assert sum(run.estimation.refused_frames.values()) >= 1
+    assert result.metrics["commands_refused"] >= 1
+    assert result.metrics["duration"] == pytest.approx(2.0)
+    assert result.zero_at_exit
