@@ -42,7 +42,7 @@ from phri_common.params import ParamSpec, ParamValue
 from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
 from phri_common.taxels import TaxelCloudEncoder
-from phri_sim.scenarios import Q_HOME, SCENARIOS, Script
+from phri_sim.scenarios import Q_HOME, SCENARIOS, Script, start_scenario
 from phri_sim.sim import ARM_JOINTS, CommandError, SimConfig, Simulation
 from phri_sim.skin import SkinConfig
 
@@ -55,10 +55,17 @@ PARAMS: list[ParamSpec] = [
               high=2**31 - 1, read_only=True),
     ParamSpec("control_period", 0.01, "simulated time per advance / timer tick", unit="s",
               low=0.002, high=0.1, read_only=True),
+    ParamSpec("physics_timestep", 0.002, "MuJoCo step; must divide control_period and the "
+              "skin, state and ground-truth periods (the lock-step runner uses 0.005 with its "
+              "100 Hz skin)", unit="s", low=0.0005, high=0.005, read_only=True),
     ParamSpec("real_time_factor", 1.0, "free-running speed relative to the wall clock",
               low=0.01, high=100.0, read_only=True),
     ParamSpec("skin_rate_hz", 500.0, "taxel-array publication rate (sim time)", unit="Hz",
               low=1.0, high=500.0, read_only=True),
+    ParamSpec("skin_idle_decimation", 1, "publish a patch nobody touches only every N-th skin "
+              "frame (1 = every frame; the lock-step runner uses 10: an untouched patch's frame "
+              "carries only noise below any contact threshold)", low=1, high=1000,
+              read_only=True),
     ParamSpec("state_rate_hz", 100.0, "/joint_states, /odom and /clock rate (sim time)",
               unit="Hz", low=1.0, high=500.0, read_only=True),
     ParamSpec("ground_truth_rate_hz", 100.0, "ground-truth rate (sim time); 0 = off",
@@ -74,6 +81,18 @@ PARAMS: list[ParamSpec] = [
 
 SENSOR_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 ARM_TOPICS = {side: f"{side}/forward_velocity_controller/commands" for side in ARM_JOINTS}
+
+
+def _check_divides(step: float, periods: dict[str, float]) -> None:
+    """Every period must be a whole number (≥ 1) of physics steps: ValueError naming the
+    parameter otherwise."""
+    for name, period in periods.items():
+        n = period / step
+        if n < 1.0 - 1e-9 or abs(n - round(n)) > 1e-6:
+            raise ValueError(
+                f"parameter '{name}' refused: its period {period:g} s is not a whole number of "
+                f"physics steps (physics_timestep = {step:g} s)"
+            )
 
 
 def yaw_quaternion(yaw: float) -> Quaternion:
@@ -113,6 +132,15 @@ class SimBridgeNode(Node):
 
     def __init__(self, *, node_name: str = "phri_sim", **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
+        self.viewer: Any = None
+        try:
+            self._setup()
+        except ValueError:
+            # A refused parameter: leave no half-built node behind in the context.
+            super().destroy_node()
+            raise
+
+    def _setup(self) -> None:
         self.values: dict[str, ParamValue] = declare_parameters(self, PARAMS)
         v = self.values
         scenario_name = str(v["scenario"])
@@ -126,19 +154,30 @@ class SimBridgeNode(Node):
                             noise_std=float(v["skin_noise_std"])),
             command_timeout=float(v["command_timeout"]),
             seed=int(v["seed"]),
+            timestep=float(v["physics_timestep"]),
         )
+        periods = {
+            "control_period": float(v["control_period"]),
+            "skin_rate_hz": 1.0 / float(v["skin_rate_hz"]),
+            "state_rate_hz": 1.0 / float(v["state_rate_hz"]),
+        }
+        if float(v["ground_truth_rate_hz"]) > 0.0:
+            periods["ground_truth_rate_hz"] = 1.0 / float(v["ground_truth_rate_hz"])
+        _check_divides(float(v["physics_timestep"]), periods)
         self.sim = Simulation(config)
         self.scenario = SCENARIOS.get(scenario_name)
         self.script: Script | None = None
-        self.sim.reset(np.array(self.scenario.q0 if self.scenario else Q_HOME))
         if self.scenario is not None:
-            self.script = self.scenario.make_script(self.sim)
-            for part, target in self.script(0.0).items():
-                self.sim.set_target(part, target, teleport=True)
-            self.sim.reset(np.array(self.scenario.q0))
+            self.script = start_scenario(self.sim, self.scenario)
+        else:
+            self.sim.reset(np.array(Q_HOME))
         self.period = float(v["control_period"])
         self.steps_per_period = max(1, round(self.period / self.sim.dt))
         self._skin_every = max(1, round(1.0 / (float(v["skin_rate_hz"]) * self.sim.dt)))
+        self._idle_every = int(v["skin_idle_decimation"])
+        self._idle_count = dict.fromkeys(self.sim.patches, 0)
+        self._was_touched = dict.fromkeys(self.sim.patches, True)
+        self.published_patches: list[str] = []
         self._state_every = max(1, round(1.0 / (float(v["state_rate_hz"]) * self.sim.dt)))
         gt_rate = float(v["ground_truth_rate_hz"])
         self._truth_every = 0 if gt_rate <= 0 else max(1, round(1.0 / (gt_rate * self.sim.dt)))
@@ -171,7 +210,6 @@ class SimBridgeNode(Node):
             self.create_subscription(
                 Float64MultiArray, topic, lambda msg, side=side: self._on_arm(side, msg), 10
             )
-        self.viewer: Any = None
         if bool(v["viewer"]):
             self._open_viewer()
         self.timer = None
@@ -206,8 +244,10 @@ class SimBridgeNode(Node):
         """Advance ``periods`` control periods, publishing each topic when it falls due; publish
         /clock at the end unless ``clock`` is False (lock-step publishes it after the sensors
         have been consumed)."""
-        for _ in range(periods * self.steps_per_period):
-            if self.script is not None:
+        for i in range(periods * self.steps_per_period):
+            # The person's script is evaluated once per control period; in between, each
+            # target moves on with its velocity (Simulation.set_target), so it stays smooth.
+            if self.script is not None and i % self.steps_per_period == 0:
                 for part, target in self.script(self.sim.time).items():
                     self.sim.set_target(part, target)
             self.sim.step()
@@ -231,7 +271,7 @@ class SimBridgeNode(Node):
     def publish_all(self, clock: bool) -> None:
         """Every topic once at the current state."""
         self.publish_state()
-        self.publish_skin()
+        self.publish_skin(force=True)
         self.publish_ground_truth()
         if clock:
             self.publish_clock()
@@ -247,28 +287,52 @@ class SimBridgeNode(Node):
         self.joint_pub.publish(joint_state_msg(self.sim.joint_names[3:], q[3:], qd[3:], stamp))
         self.odom_pub.publish(odometry_msg(q[:3], self.sim.base_twist(), stamp))
 
-    def publish_skin(self) -> None:
-        """One taxel array per patch (frame = the patch's link)."""
+    def publish_skin(self, *, force: bool = False) -> None:
+        """One taxel array per patch (frame = the patch's link).
+
+        With ``skin_idle_decimation`` N > 1 a patch nobody touches (and that was untouched in
+        its last published frame) is published only every N-th time; ``force`` publishes every
+        patch without counting as a frame of that schedule (the first scheduled frame after it
+        still carries every patch, for subscribers that joined late). :attr:`published_patches`
+        lists the patches of this call.
+        """
         stamp = self.stamp_ns
-        for name, forces in self.sim.skin_forces().items():
+        every = self._idle_every
+        self.published_patches = []
+        for name, clean in self.sim.clean_skin_forces().items():
+            if not force:
+                touched = bool(np.any(clean > 0.0))
+                self._idle_count[name] += 1
+                if not (every <= 1 or touched or self._was_touched[name]
+                        or self._idle_count[name] >= every):
+                    continue
+                self._idle_count[name] = 0
+                self._was_touched[name] = touched
+            forces = self.sim.add_skin_noise(name, clean)
             self.skin_pubs[name].publish(self.encoders[name].encode(forces, stamp))
+            self.published_patches.append(name)
 
     def publish_ground_truth(self) -> None:
         """True force on each skin link (link frame; zero when untouched), its centre (only
-        while touched) and the person's poses (odom)."""
+        while touched) and the person's poses (odom). Topics nobody subscribes to are skipped:
+        ground truth is for evaluation and recording, and seven unread messages per period
+        cost the lock-step runner about a third of its time."""
         stamp = ns_to_stamp(self.stamp_ns)
         for link, gt in self.sim.ground_truth().items():
             header = Header(stamp=stamp, frame_id=link)
-            msg = WrenchStamped(header=header)
-            f = gt.force_link
-            msg.wrench.force = Vector3(x=float(f[0]), y=float(f[1]), z=float(f[2]))
-            self.wrench_pubs[link].publish(msg)
-            if gt.in_contact:
+            if self.wrench_pubs[link].get_subscription_count() > 0:
+                msg = WrenchStamped(header=header)
+                f = gt.force_link
+                msg.wrench.force = Vector3(x=float(f[0]), y=float(f[1]), z=float(f[2]))
+                self.wrench_pubs[link].publish(msg)
+            if gt.in_contact and self.center_pubs[link].get_subscription_count() > 0:
                 c = gt.center_link
                 self.center_pubs[link].publish(
                     PointStamped(header=header, point=Point(x=float(c[0]), y=float(c[1]),
                                                             z=float(c[2])))
                 )
+        if self.person_pub.get_subscription_count() == 0:
+            return
         poses = PoseArray(header=Header(stamp=stamp, frame_id="odom"))
         for part in self.sim.parts:
             pos, quat = self.sim.part_pose(part.name)

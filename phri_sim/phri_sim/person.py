@@ -11,6 +11,16 @@ so the force the part exerts on the robot comes from contact physics: a hand who
 δ inside a link presses with ≈ K_lin·δ while the link stands still, and the force falls as the
 robot yields (moves away from the target).
 
+Soft tissue. A rigid 30 kg torso against a velocity-servoed robot makes a stiff, bouncy contact:
+MuJoCo's contact stiffness scales with the effective mass, and an impact at a few cm/s gives
+tens of newtons in one control period, which the admittance (D = 200 N·s/m) answers by backing off
+at the speed limit. A person's waist is soft: flesh and clothes over the trunk give a few kN/m
+with strong tissue damping. :class:`SoftTissue` models that explicitly: the waist geom rides on a
+light body (``<part>_tissue``) joined to the torso by two horizontal slide joints (torso frame x
+and y) with a spring K_t [N/m] and a damper D_t [N·s/m], so the waist contact behaves as a
+known linear compliance (10 N compresses it by 10 / K_t) whatever the robot's effective mass.
+The damper is set at or above critical damping for the layer's mass, so the layer does not ring.
+
 Parts (names are the MuJoCo body names; geoms are ``<part>`` and, for the torso, ``person_waist``
 and ``person_chest``):
 
@@ -54,6 +64,30 @@ class GeomSpec:
 
 
 @dataclass(frozen=True)
+class SoftTissue:
+    """A compliant layer under some of a part's geoms (module docstring, "Soft tissue").
+
+    Attributes:
+        geoms: names of the part's geoms that ride on the layer.
+        mass: mass of the layer [kg].
+        stiffness: K_t of each horizontal slide joint [N/m].
+        damping: D_t of each slide joint [N·s/m].
+        travel: range of each slide joint, ± [m] (how far the tissue can be compressed).
+    """
+
+    geoms: tuple[str, ...]
+    mass: float
+    stiffness: float
+    damping: float
+    travel: float = 0.03
+
+    @property
+    def damping_ratio(self) -> float:
+        """ζ = D_t / (2 √(K_t m)) of the layer on its springs."""
+        return self.damping / (2.0 * math.sqrt(self.stiffness * self.mass))
+
+
+@dataclass(frozen=True)
 class BodyPartSpec:
     """A compliant body part of the person.
 
@@ -66,6 +100,7 @@ class BodyPartSpec:
         rot_stiffness: rotational spring K_rot [N·m/rad].
         rot_damping: rotational damper D_rot [N·m·s/rad].
         parking: where the part waits when a scenario does not use it (world) [m].
+        tissue: optional compliant layer under some geoms (``None`` = all geoms rigid).
     """
 
     name: str
@@ -76,6 +111,12 @@ class BodyPartSpec:
     rot_stiffness: float
     rot_damping: float
     parking: tuple[float, float, float]
+    tissue: SoftTissue | None = None
+
+    @property
+    def tissue_body(self) -> str:
+        """MuJoCo name of the tissue layer's body."""
+        return self.name + "_tissue"
 
 
 HAND_RADIUS = 0.045
@@ -84,6 +125,16 @@ WAIST_RADIUS = 0.13
 """Radius of the waist capsule [m]."""
 WAIST_HEIGHT = 1.00
 """Height of the waist centre above the floor when the torso stands at its target [m]."""
+WAIST_TISSUE = SoftTissue(
+    geoms=("person_waist",),
+    mass=1.0,
+    stiffness=2500.0,
+    damping=120.0,
+)
+"""The waist's soft tissue: 2.5 kN/m (a clothed waist; soft-tissue stiffness of the trunk is of
+the order of 1–5 kN/m), 1 kg of tissue, damping ratio 1.2. The damper stays well below the
+admittance damping D = 200 N·s/m of the waltz, so a force step is not reflected back into the
+robot's one-period-delayed command as an oscillation."""
 
 TORSO = BodyPartSpec(
     name="person_torso",
@@ -98,6 +149,7 @@ TORSO = BodyPartSpec(
     rot_stiffness=400.0,
     rot_damping=80.0,
     parking=(3.0, -3.0, WAIST_HEIGHT),
+    tissue=WAIST_TISSUE,
 )
 LEFT_HAND = BodyPartSpec(
     name="person_left_hand",
@@ -107,7 +159,7 @@ LEFT_HAND = BodyPartSpec(
     damping=2.0 * math.sqrt(400.0 * 0.5),
     rot_stiffness=1.0,
     rot_damping=0.05,
-    parking=(3.0, 1.0, 1.0),
+    parking=(1.4, 0.9, 0.9),
 )
 RIGHT_HAND = BodyPartSpec(
     name="person_right_hand",
@@ -117,7 +169,7 @@ RIGHT_HAND = BodyPartSpec(
     damping=2.0 * math.sqrt(400.0 * 0.5),
     rot_stiffness=1.0,
     rot_damping=0.05,
-    parking=(3.0, -1.0, 1.0),
+    parking=(1.4, -0.9, 0.9),
 )
 PERSON_PARTS: tuple[BodyPartSpec, ...] = (TORSO, LEFT_HAND, RIGHT_HAND)
 """The person's parts, in the order used by the ground-truth pose array."""
@@ -132,8 +184,12 @@ class PartTarget:
         velocity: target velocity [m/s] (feeds the damper so a moving target is tracked
             without lag).
         yaw: target heading about world z [rad] (parts stay upright).
+        rest: where a teleport puts the part, when that differs from the target: a part that
+            leans on the robot rests short of its target by the spring's deflection [m]
+            (``None`` = at the target).
     """
 
     position: FloatArray
     velocity: FloatArray
     yaw: float = 0.0
+    rest: FloatArray | None = None

@@ -4,7 +4,8 @@ A :class:`Scenario` bundles what one experiment needs: the robot's start configu
 controller parameters of the paper for that experiment (:attr:`Scenario.controller_parameters`,
 plain names and values the bringup can pass as ROS parameters or dump to YAML with
 :func:`parameters_yaml`), its length (and a shortened CI length), and a script that moves the
-person's spring targets over time. Scripts are functions of simulation time only, so a scenario is
+person's spring targets over time. Scripts are functions of simulation time (the sliding hand
+also reads the robot's current link pose, as a person pressing follows the arm), so a scenario is
 deterministic for a seed (the seed drives only the skin noise).
 
 Scenarios (``SCENARIOS``):
@@ -17,10 +18,15 @@ Scenarios (``SCENARIOS``):
   K = 0; desired-region margin 0.01 m.
 * ``whole_body`` (Fig. 8): periodic touches on the three skin links in turn.
   Λ = 0.5 I, D = 60 I, K = 40 I.
-* ``waltz`` (Fig. 1, Sec. VI-B): the torso walks two waltz boxes (forward, side, close, back,
-  side, close), the second turned by 90°, about a minute; the robot follows through its left
-  forearm on the waist alone: arms held within ±0.1 rad of q_dance, left-forearm priority locked
-  at 1, desired force 10 N to the right (base frame). Λ = 0.1 I, D = 200 I, K = 0.
+* ``waltz`` (Fig. 1, Sec. VI-B): from a hold resting at the 10 N preload (settled before t = 0),
+  the torso walks two waltz boxes (forward, side, close, back, side, close; minimum-jerk steps),
+  the second turned by 90°, a minute in all; the robot follows through its left forearm on the
+  (soft) waist alone: arms held within ±0.1 rad of q_dance (:data:`Q_DANCE`, the wrist turned
+  outward), left-forearm priority locked at 1, desired force 10 N to the right (base frame).
+  Λ = 0.1 I, D = 200 I, K = 0.
+
+Hands never jump between presses (:func:`hand_schedule`); the sliding hand keeps its press depth
+on the link's current surface.
 
 Table II values (q̇ ∈ [−0.15, 0.15], k_η = 200, b = 4, K_p = 5, ψ_thr = 1e-4, ε = 0.1, h = 0.15,
 100 Hz) are the controller's defaults and are repeated in every parameter set for clarity.
@@ -90,6 +96,9 @@ class Scenario:
         estimation_parameters: contact_estimation parameters.
         make_script: builds the person's script from the simulation at its start state.
         metrics: which metrics apply (``centring``, ``tracking``, ``whole_body``, ``waltz``).
+        estimation_parameters: contact_estimation parameters.
+        settle: physics settling time before t = 0 with the robot held still, so contacts the
+            script starts with are at rest (:meth:`Simulation.settle`) [s].
     """
 
     name: str
@@ -101,6 +110,22 @@ class Scenario:
     make_script: Callable[[Simulation], Script]
     metrics: str
     estimation_parameters: dict[str, Any] = field(default_factory=dict)
+    settle: float = 0.0
+
+
+def start_scenario(sim: Simulation, scenario: Scenario) -> Script:
+    """Put ``sim`` at the start of ``scenario`` and return its person script: robot at
+    ``q0``, every part at its t = 0 target at rest, then :attr:`Scenario.settle` seconds of
+    settling (time reset to 0)."""
+    q0 = np.array(scenario.q0)
+    sim.reset(q0)
+    script = scenario.make_script(sim)
+    for part, target in script(0.0).items():
+        sim.set_target(part, target, teleport=True)
+    sim.reset(q0)
+    if scenario.settle > 0.0:
+        sim.settle(scenario.settle)
+    return script
 
 
 # ---------------------------------------------------------------------------------------------
@@ -169,6 +194,75 @@ def _press_target(point: FloatArray, normal: FloatArray, force: float, t: float,
     return PartTarget(pos, vel)
 
 
+@dataclass(frozen=True)
+class Press:
+    """One press of a hand: ramps in at ``t_on``, out at ``t_off`` [s], on the surface point
+    ``point`` with outward ``normal`` (world), with ``force`` [N]."""
+
+    t_on: float
+    t_off: float
+    point: FloatArray
+    normal: FloatArray
+    force: float
+
+
+HAND_TRAVEL = 1.5
+"""Time a hand takes to move between two presses (minimum-jerk path between their approach
+points, or from where it waits) [s]; it arrives 0.25 s before the press ramps in."""
+
+
+def _approach(press: Press) -> FloatArray:
+    return np.asarray(press.point + press.normal * (HAND_RADIUS + 0.03))
+
+
+def hand_schedule(rest: FloatArray, presses: list[Press]) -> Callable[[float], PartTarget]:
+    """A hand's target over time: it waits at ``rest`` (world [m]), travels to each press's
+    approach point (3 cm off the surface) along a minimum-jerk path in :data:`HAND_TRAVEL`,
+    presses, lifts back to the approach point and waits there for its next press. A hand whose
+    first press starts too early to travel starts at that press's approach point. So a hand
+    never jumps: a spring target that leaps across the scene would throw the hand at the robot.
+    """
+    order = sorted(presses, key=lambda p: p.t_on)
+    zero = np.zeros(3)
+
+    def target(t: float) -> PartTarget:
+        here = np.asarray(rest, dtype=np.float64)
+        for k, press in enumerate(order):
+            approach = _approach(press)
+            t_go = press.t_on - 0.25 - HAND_TRAVEL
+            if t_go < 0.0 and k == 0:
+                here = approach
+            if t < t_go:
+                return PartTarget(here, zero)
+            if t < press.t_on - 0.25:
+                x = (t - t_go) / HAND_TRAVEL
+                delta = approach - here
+                return PartTarget(here + delta * minimum_jerk(x),
+                                  delta * minimum_jerk_rate(x, HAND_TRAVEL))
+            later = order[k + 1] if k + 1 < len(order) else None
+            if later is None or t < later.t_on - 0.25 - HAND_TRAVEL:
+                return _press_target(press.point, press.normal, press.force, t, press.t_on,
+                                     press.t_off)
+            here = approach
+        return PartTarget(here, zero)
+
+    return target
+
+
+def minimum_jerk(x: float) -> float:
+    """0 → 1 minimum-jerk profile 10x³ − 15x⁴ + 6x⁵ on x ∈ [0, 1] (clamped): zero velocity and
+    acceleration at both ends, as a person moves a hand or the body between two poses."""
+    x = min(max(x, 0.0), 1.0)
+    return x * x * x * (10.0 + x * (-15.0 + 6.0 * x))
+
+
+def minimum_jerk_rate(x: float, duration: float) -> float:
+    """d/dt of :func:`minimum_jerk` (x = t / duration) [1/s]."""
+    if not 0.0 < x < 1.0:
+        return 0.0
+    return 30.0 * x * x * (1.0 - x) * (1.0 - x) / duration
+
+
 # ---------------------------------------------------------------------------------------------
 # 1. Contact centring (Fig. 6)
 # ---------------------------------------------------------------------------------------------
@@ -179,22 +273,22 @@ CENTRING_FORCE = 15.0
 
 def centring_script(sim: Simulation) -> Script:
     """Even press on the middle of the right forearm (1–4 s), release; then presses from above
-    near the elbow end and from below near the wrist end (6–9 s), release."""
+    near the elbow end (right hand) and from below near the wrist end (left hand, coming from
+    where it waits) (6–9 s), release."""
     up = np.array([0.0, 0.0, 1.0])
     mid, n_mid, _ = press_geometry(sim, "right_forearm", 0.18, up)
     top, n_top, _ = press_geometry(sim, "right_forearm", 0.25, up)
     bottom, n_bottom, _ = press_geometry(sim, "right_forearm", 0.11, -up)
-    park_l = _parked("person_left_hand", sim)
     park_t = _parked("person_torso", sim)
+    f = CENTRING_FORCE
+    right = hand_schedule(_parked("person_right_hand", sim).position,
+                          [Press(1.0, 4.0, mid, n_mid, f), Press(6.0, 9.0, top, n_top, f)])
+    left = hand_schedule(_parked("person_left_hand", sim).position,
+                         [Press(6.0, 9.0, bottom, n_bottom, f)])
 
     def script(t: float) -> dict[str, PartTarget]:
-        if t < 5.0:
-            right = _press_target(mid, n_mid, CENTRING_FORCE, t, 1.0, 4.0)
-            left = park_l
-        else:
-            right = _press_target(top, n_top, CENTRING_FORCE, t, 6.0, 9.0)
-            left = _press_target(bottom, n_bottom, CENTRING_FORCE, t, 6.0, 9.0)
-        return {"person_right_hand": right, "person_left_hand": left, "person_torso": park_t}
+        return {"person_right_hand": right(t), "person_left_hand": left(t),
+                "person_torso": park_t}
 
     return script
 
@@ -206,11 +300,31 @@ def centring_script(sim: Simulation) -> Script:
 SLIDE_FORCE = 12.0
 SLIDE_AMPLITUDE = 0.05
 SLIDE_PERIOD = 6.0
+SLIDE_RELEASE = 14.0
+"""The hand lets go at this time [s] (2 s before the end of the full run)."""
+
+
+def surface_shift(sim: Simulation, patch: str, point: FloatArray, normal: FloatArray) -> float:
+    """How far the patch's surface under ``point`` (world) has moved along ``normal`` from
+    ``point`` at the current robot state [m]: the top of the link now lies at
+    ``point + shift · normal``. ``point`` is a surface point of an earlier state."""
+    p = robot_description().patch(patch)
+    rot, pos = sim.link_pose(p.link)
+    s = float((rot.T @ (point - pos) - np.array(p.point)) @ np.array(p.axis))
+    lo, hi = p.axial_range
+    now, _, _ = press_geometry(sim, patch, min(max(s, lo), hi), normal)
+    return float((now - point) @ normal)
 
 
 def sliding_script(sim: Simulation) -> Script:
     """Press the middle of the left forearm from above (0.5–1.5 s), then slide ± 5 cm along the
-    link (sinusoid, 6 s period), then let go 2 s before the end."""
+    link (sinusoid in the world, 6 s period, amplitude ramped in over the first period), then
+    let go at :data:`SLIDE_RELEASE`.
+
+    The hand keeps its press depth relative to the link's current surface (a person pressing
+    keeps the force, Fig. 7: the operator's force stays on while the contact slides): its
+    target along the press normal follows the link as the robot yields, while the slide is
+    scripted in the world, so the robot following the hand shrinks the slide on the skin."""
     up = np.array([0.0, 0.0, 1.0])
     mid, normal, axis = press_geometry(sim, "left_forearm", 0.18, up)
     park_r = _parked("person_right_hand", sim)
@@ -218,15 +332,15 @@ def sliding_script(sim: Simulation) -> Script:
 
     def script(t: float) -> dict[str, PartTarget]:
         slide_t = max(t - 2.0, 0.0)
-        # Sinusoid with a smooth start: amplitude ramps in over the first period.
         env = smoothstep(slide_t / SLIDE_PERIOD)
         w = 2.0 * math.pi / SLIDE_PERIOD
         offset = SLIDE_AMPLITUDE * env * math.sin(w * slide_t)
         rate = SLIDE_AMPLITUDE * env * w * math.cos(w * slide_t) if t > 2.0 else 0.0
-        press = _press_target(mid, normal, SLIDE_FORCE, t, 0.5, 1e9)
+        over = mid + axis * offset
+        surface = over + normal * surface_shift(sim, "left_forearm", over, normal)
+        press = _press_target(surface, normal, SLIDE_FORCE, t, 0.5, SLIDE_RELEASE)
         return {
-            "person_left_hand": PartTarget(press.position + axis * offset,
-                                           press.velocity + axis * rate),
+            "person_left_hand": PartTarget(press.position, press.velocity + axis * rate),
             "person_right_hand": park_r,
             "person_torso": park_t,
         }
@@ -240,27 +354,35 @@ def sliding_script(sim: Simulation) -> Script:
 
 TOUCH_FORCE = 15.0
 TOUCH_PERIOD = 4.0
+SCENARIO_WHOLE_BODY_LENGTH = 24.0
+"""Full length of the whole-body scenario [s]."""
 """Each link is touched for 2 s of every 4 s slot, links in turn."""
 
 
 def whole_body_script(sim: Simulation) -> Script:
     """The left hand touches the left upper arm and the left forearm (from the outside, +y), the
-    right hand the right forearm (from above), one link per 4 s slot in turn."""
+    right hand the right forearm (from above), one link per 4 s slot in turn (each touch 2 s,
+    from 0.5 s into its slot); between touches a hand waits at its last approach point and
+    travels to the next (:func:`hand_schedule`)."""
     side = np.array([0.0, 1.0, 0.0])
     up = np.array([0.0, 0.0, 1.0])
-    presses = [
+    spots = [
         ("person_left_hand", *press_geometry(sim, "left_upper_arm", 0.24, side)[:2]),
         ("person_left_hand", *press_geometry(sim, "left_forearm", 0.18, side)[:2]),
         ("person_right_hand", *press_geometry(sim, "right_forearm", 0.18, up)[:2]),
     ]
-    park = {p.name: PartTarget(np.array(p.parking), np.zeros(3)) for p in sim.parts}
+    slots = math.ceil(SCENARIO_WHOLE_BODY_LENGTH / TOUCH_PERIOD)
+    presses: dict[str, list[Press]] = {"person_left_hand": [], "person_right_hand": []}
+    for slot in range(slots):
+        hand, point, normal = spots[slot % len(spots)]
+        t_on = slot * TOUCH_PERIOD + 0.5
+        presses[hand].append(Press(t_on, t_on + 2.0, point, normal, TOUCH_FORCE))
+    hands = {name: hand_schedule(_parked(name, sim).position, p) for name, p in presses.items()}
+    park_t = _parked("person_torso", sim)
 
     def script(t: float) -> dict[str, PartTarget]:
-        out = dict(park)
-        slot = int(t // TOUCH_PERIOD)
-        hand, point, normal = presses[slot % 3]
-        t_on = slot * TOUCH_PERIOD + 0.5
-        out[hand] = _press_target(point, normal, TOUCH_FORCE, t, t_on, t_on + 2.0)
+        out = {name: hand(t) for name, hand in hands.items()}
+        out["person_torso"] = park_t
         return out
 
     return script
@@ -270,20 +392,41 @@ def whole_body_script(sim: Simulation) -> Script:
 # 4. Waltz (Fig. 1, Sec. VI-B)
 # ---------------------------------------------------------------------------------------------
 
+Q_DANCE_LEFT: tuple[float, ...] = (0.0, -0.3, 0.3, math.pi, 0.0, 0.0)
+"""Left arm of q_dance: the home arm with the wrist turned outward (wrist 1 at π), so the forearm
+embraces the waist with nothing below or inside it — with the home wrist (hanging inward) the
+waist would run into the wrist as soon as it moved forward along the forearm [rad]."""
+Q_DANCE: tuple[float, ...] = (*Q_DANCE_LEFT, *Q_RIGHT_HOME)
+"""q_dance (12): the waltz's arm configuration, left then right arm [rad]."""
+Q_WALTZ: tuple[float, ...] = (0.0, 0.0, 0.0, *Q_DANCE)
+"""Waltz start configuration (15)."""
+
 WALTZ_FORCE = 10.0
 """The left forearm's desired force towards the waist (to the right in the base frame) [N]."""
-WALTZ_STEP = 0.12
+WALTZ_STEP = 0.10
 """Length of a box side [m]."""
-WALTZ_STEP_TIME = 5.0
-"""Duration of a moving step [s]; a closing step takes half of it."""
-WALTZ_INTRO = 4.0
+WALTZ_STEP_TIME = 5.5
+"""Duration of a moving step [s]; a closing step (feet together, the torso still) takes half.
+With the minimum-jerk profile the torso peaks at 1.875 · 0.10 / 5.5 = 0.034 m/s and
+0.019 m/s² — a slow, deliberate lead. A step away from the robot is followed only through the
+preload: the robot closes in at (10 N − F) / D, so a lead faster than 10 N / 200 N·s/m
+= 0.05 m/s would open the contact; 0.034 m/s leaves the waist force ≈ 3 N at its lowest."""
+WALTZ_INTRO = 2.0
 """Standing still in the hold before the first step [s]."""
+WALTZ_OUTRO = 3.0
+"""Standing still after the last step [s]."""
+WALTZ_SETTLE = 2.0
+"""Physics settling before t = 0: the hold starts resting at the 10 N preload, not with an
+impact [s]."""
+WALTZ_CONTACT_S = 0.18
+"""Axial position of the waist contact on the left forearm patch [m] (its middle)."""
 
 
 def waltz_path() -> tuple[list[float], list[FloatArray], list[float]]:
     """Waypoints of the torso: times [s], planar offsets from the start [m] (world frame), yaw
     [rad]. Box 1: forward (+x), side (away from the robot's left forearm, −y), close, back, side
-    (+y), close. Box 2: the same turned by −90° about the couple (a quarter turn to the right)."""
+    (+y), close. Box 2: the same turned by −90° about the couple (a quarter turn to the right),
+    the torso turning with it."""
     a, step = WALTZ_STEP, WALTZ_STEP_TIME
     box = [np.array([a, 0.0]), np.array([0.0, -a]), None, np.array([-a, 0.0]),
            np.array([0.0, a]), None]
@@ -306,7 +449,7 @@ def waltz_path() -> tuple[list[float], list[FloatArray], list[float]]:
 
 
 def _interpolate(times: list[float], values: list[Any], t: float) -> tuple[Any, Any]:
-    """Cosine-eased piecewise interpolation: (value, rate) at ``t``."""
+    """Minimum-jerk piecewise interpolation between waypoints: (value, rate) at ``t``."""
     if t <= times[0]:
         return values[0], values[0] * 0.0
     for i in range(1, len(times)):
@@ -314,29 +457,34 @@ def _interpolate(times: list[float], values: list[Any], t: float) -> tuple[Any, 
             dt = times[i] - times[i - 1]
             x = (t - times[i - 1]) / dt
             delta = values[i] - values[i - 1]
-            return values[i - 1] + delta * smoothstep(x), delta * smoothstep_rate(x, dt)
+            return values[i - 1] + delta * minimum_jerk(x), delta * minimum_jerk_rate(x, dt)
     return values[-1], values[-1] * 0.0
 
 
-def waltz_start(sim: Simulation) -> FloatArray:
-    """Torso start position: the waist against the inner (−y) side of the left forearm's middle,
-    pressed in by the spring so it pushes with the desired force [m]."""
-    point, normal, _ = press_geometry(sim, "left_forearm", 0.18, np.array([0.0, -1.0, 0.0]))
+def waltz_contact(sim: Simulation) -> tuple[FloatArray, FloatArray]:
+    """(waist centre [m], unit vector from the waist into the left forearm) when the waist just
+    touches the inner (−y) side of the left forearm's middle, at the current robot state."""
+    point, normal, _ = press_geometry(sim, "left_forearm", WALTZ_CONTACT_S,
+                                      np.array([0.0, -1.0, 0.0]))
     centre = point + normal * WAIST_RADIUS
-    return np.array([centre[0], centre[1], centre[2]])
+    return np.asarray(centre), np.asarray(-normal)
 
 
-def waltz_preload_direction(sim: Simulation) -> FloatArray:
-    """Unit vector from the waist into the left forearm (the spring preload direction)."""
-    _, normal, _ = press_geometry(sim, "left_forearm", 0.18, np.array([0.0, -1.0, 0.0]))
-    return np.asarray(-normal)
+def waltz_start(sim: Simulation) -> FloatArray:
+    """Torso start position [m]: the waist touching the forearm, its tissue compressed by the
+    preload (:func:`waltz_contact`)."""
+    centre, inward = waltz_contact(sim)
+    assert TORSO.tissue is not None
+    return np.asarray(centre + inward * (WALTZ_FORCE / TORSO.tissue.stiffness))
 
 
 def waltz_script(sim: Simulation) -> Script:
-    """The torso follows :func:`waltz_path` from :func:`waltz_start`; hands stay parked (the
-    robot is led by the waist alone)."""
+    """The torso follows :func:`waltz_path` from :func:`waltz_start`, its spring target
+    :data:`WALTZ_FORCE` / K deeper towards the forearm (the person leans into the hold with the
+    preload); hands stay parked (the robot is led by the waist alone)."""
     start = waltz_start(sim)
-    preload = waltz_preload_direction(sim) * (WALTZ_FORCE / TORSO.stiffness)
+    _, inward = waltz_contact(sim)
+    preload = inward * (WALTZ_FORCE / TORSO.stiffness)
     times, points, yaws = waltz_path()
     parks = {p.name: PartTarget(np.array(p.parking), np.zeros(3)) for p in sim.parts}
 
@@ -344,11 +492,11 @@ def waltz_script(sim: Simulation) -> Script:
         offset, rate = _interpolate(times, points, t)
         yaw, _ = _interpolate(times, [np.array([y]) for y in yaws], t)
         out = dict(parks)
-        # The waist starts just touching; the hold's preload ramps in over the first second.
         out["person_torso"] = PartTarget(
-            start + preload * smoothstep(t) + np.array([offset[0], offset[1], 0.0]),
+            start + preload + np.array([offset[0], offset[1], 0.0]),
             np.array([rate[0], rate[1], 0.0]),
             float(yaw[0]),
+            rest=start,
         )
         return out
 
@@ -356,8 +504,8 @@ def waltz_script(sim: Simulation) -> Script:
 
 
 def waltz_duration() -> float:
-    """Length of the waltz: the path plus 4 s to settle [s]."""
-    return waltz_path()[0][-1] + 4.0
+    """Length of the waltz: intro, two boxes and the outro [s]."""
+    return waltz_path()[0][-1] + WALTZ_OUTRO
 
 
 # ---------------------------------------------------------------------------------------------
@@ -373,7 +521,7 @@ WALTZ_PARAMS = {
     **TABLE_II,
     **_admittance([0.1] * 6, [200.0] * 6, [0.0] * 6),
     "q_dance_enabled": True,
-    "q_dance": [*Q_LEFT_HOME, *Q_RIGHT_HOME],
+    "q_dance": list(Q_DANCE),
     "q_dance_range": 0.1,
     "left_forearm_link.priority_lock": 1.0,
     "left_forearm_link.desired_force": [0.0, -WALTZ_FORCE, 0.0],
@@ -388,9 +536,11 @@ SCENARIOS: dict[str, Scenario] = {
         Scenario("sliding", "Fig. 7: press the middle of a link, slide forward and back",
                  16.0, 10.0, Q_HOME, SLIDING_PARAMS, sliding_script, "tracking"),
         Scenario("whole_body", "Fig. 8: periodic touches on the three skin links",
-                 24.0, 12.0, Q_HOME, WHOLE_BODY_PARAMS, whole_body_script, "whole_body"),
+                 SCENARIO_WHOLE_BODY_LENGTH, 12.0, Q_HOME, WHOLE_BODY_PARAMS,
+                 whole_body_script, "whole_body"),
         Scenario("waltz", "Fig. 1: the torso leads a waltz box-step through the waist",
-                 waltz_duration(), 20.0, Q_HOME, WALTZ_PARAMS, waltz_script, "waltz"),
+                 waltz_duration(), 20.0, Q_WALTZ, WALTZ_PARAMS, waltz_script, "waltz",
+                 settle=WALTZ_SETTLE),
     )
 }
 

@@ -29,7 +29,7 @@ import numpy as np
 
 from phri_description.description import JOINT_NAMES
 from phri_description.mujoco_model import build_spec
-from phri_sim.person import PERSON_PARTS, BodyPartSpec
+from phri_sim.person import PERSON_PARTS, BodyPartSpec, GeomSpec
 
 BASE_KV: tuple[float, float, float] = (2.0e4, 2.0e4, 1.0e4)
 """Velocity-servo gains of base x [N·s/m], y [N·s/m] and yaw [N·m·s/rad]."""
@@ -44,9 +44,18 @@ TIMESTEP = 0.002
 ROBOT_CONTYPE, ROBOT_CONAFFINITY = 1, 2
 PERSON_CONTYPE, PERSON_CONAFFINITY = 2, 1
 PERSON_FRICTION = 0.3
-"""Sliding friction of the person's geoms (skin on cloth/skin): low, so hands can slide."""
-PERSON_SOLREF: tuple[float, float] = (0.01, 1.0)
-"""Contact time constant [s] and damping ratio of the person's soft tissue."""
+"""Sliding friction of the person's geoms (skin on cloth/skin): low, so hands can slide. Person
+geoms have contact priority 1, so this value (not MuJoCo's default maximum of the two geoms', 1.0
+on the robot) and the person's solref/solimp below govern every person–robot contact."""
+PERSON_PRIORITY = 1
+PERSON_SOLREF: tuple[float, float] = (0.02, 1.0)
+"""Contact time constant [s] and damping ratio of the person's surface (skin and clothes)."""
+PERSON_SOLIMP: tuple[float, float, float, float, float] = (0.0001, 0.95, 0.002, 0.5, 2.0)
+"""Contact impedance of the person's surface: it rises from ≈ 0 at first touch to 0.95 over
+2 mm of penetration, so the contact force grows smoothly from zero with the indentation (≈ 1 mm
+at 10 N) instead of jumping. With MuJoCo's default (0.9 at zero penetration) the contact is
+stiff to within some 20 µm, and the micrometre jitter of a velocity-servoed link sliding under a
+light body makes it flicker on and off between physics steps."""
 
 ACTUATOR_SUFFIX = "_vel"
 
@@ -91,13 +100,17 @@ def _gravity_compensate_arms(spec: mujoco.MjSpec) -> None:
             body.gravcomp = 1.0
 
 
-def _add_part(spec: mujoco.MjSpec, part: BodyPartSpec) -> None:
-    body = spec.worldbody.add_body()
-    body.name = part.name
-    body.pos = np.array(part.parking)
-    body.gravcomp = 1.0
-    body.add_freejoint().name = part.name + "_free"
-    for g in part.geoms:
+def _capsule_or_sphere_volume(g: GeomSpec) -> float:
+    volume = 4.0 / 3.0 * np.pi * g.size[0] ** 3
+    if g.shape == "capsule":
+        volume += 2.0 * np.pi * g.size[0] ** 2 * g.size[1]
+    return float(volume)
+
+
+def _add_geoms(body: mujoco.MjsBody, geoms: list[GeomSpec], mass: float) -> None:
+    """Add the part's geoms to ``body`` with ``mass`` [kg] spread by volume (uniform density)."""
+    volume = sum(_capsule_or_sphere_volume(g) for g in geoms)
+    for g in geoms:
         geom = body.add_geom()
         geom.name = g.name
         geom.type = (
@@ -112,15 +125,45 @@ def _add_part(spec: mujoco.MjSpec, part: BodyPartSpec) -> None:
         geom.conaffinity = PERSON_CONAFFINITY
         geom.condim = 3
         geom.friction = np.array([PERSON_FRICTION, 0.005, 0.0001])
+        geom.priority = PERSON_PRIORITY
         geom.solref = np.array(PERSON_SOLREF)
-    # Inertia from the geoms, scaled to the part's mass (uniform density).
-    volume = sum(
-        (4.0 / 3.0 * np.pi * g.size[0] ** 3)
-        + (2.0 * np.pi * g.size[0] ** 2 * g.size[1] if g.shape == "capsule" else 0.0)
-        for g in part.geoms
-    )
-    for geom in body.geoms:
-        geom.density = part.mass / volume
+        geom.solimp = np.array(PERSON_SOLIMP)
+        geom.density = mass / volume
+
+
+def _add_part(spec: mujoco.MjSpec, part: BodyPartSpec) -> None:
+    body = spec.worldbody.add_body()
+    body.name = part.name
+    body.pos = np.array(part.parking)
+    body.gravcomp = 1.0
+    body.add_freejoint().name = part.name + "_free"
+    tissue = part.tissue
+    soft = set(tissue.geoms) if tissue is not None else set()
+    unknown = soft - {g.name for g in part.geoms}
+    if unknown:
+        raise ValueError(f"{part.name}: tissue geoms {sorted(unknown)} are not geoms of the part")
+    rigid = [g for g in part.geoms if g.name not in soft]
+    tissue_mass = tissue.mass if tissue is not None else 0.0
+    if rigid:
+        _add_geoms(body, rigid, part.mass - tissue_mass)
+    if tissue is None:
+        return
+    # The compliant layer (person.SoftTissue): a light body on two horizontal slide joints with
+    # a spring and a damper each, carrying the soft geoms.
+    layer = body.add_body()
+    layer.name = part.tissue_body
+    layer.gravcomp = 1.0
+    for axis_name, axis in (("x", (1.0, 0.0, 0.0)), ("y", (0.0, 1.0, 0.0))):
+        joint = layer.add_joint()
+        joint.name = f"{part.tissue_body}_{axis_name}"
+        joint.type = mujoco.mjtJoint.mjJNT_SLIDE
+        joint.axis = np.array(axis)
+        joint.stiffness = np.array([tissue.stiffness, 0.0, 0.0])
+        joint.damping = np.array([tissue.damping, 0.0, 0.0])
+        joint.springref = 0.0
+        joint.limited = mujoco.mjtLimited.mjLIMITED_TRUE
+        joint.range = np.array([-tissue.travel, tissue.travel])
+    _add_geoms(layer, [g for g in part.geoms if g.name in soft], tissue.mass)
 
 
 def robot_spec() -> mujoco.MjSpec:

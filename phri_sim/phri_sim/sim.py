@@ -68,6 +68,8 @@ class CommandWatchdog:
         self._values = {k: np.zeros(n) for k, n in COMMAND_SIZES.items()}
         self._times = dict.fromkeys(COMMAND_SIZES, -math.inf)
         self.refused = 0
+        self.version = 0
+        """Incremented by every :meth:`set` (accepted or refused)."""
 
     def set(self, channel: str, values: FloatArray, t: float) -> None:
         """Store a command received at sim time ``t`` [s].
@@ -80,6 +82,7 @@ class CommandWatchdog:
             raise CommandError(f"unknown command channel {channel!r}")
         arr = np.asarray(values, dtype=np.float64).reshape(-1)
         n = COMMAND_SIZES[channel]
+        self.version += 1
         if arr.shape != (n,) or not np.all(np.isfinite(arr)):
             self.refused += 1
             self._values[channel] = np.zeros(n)
@@ -95,6 +98,12 @@ class CommandWatchdog:
         if t - self._times[channel] > self.timeout:
             return np.zeros(COMMAND_SIZES[channel])
         return self._values[channel]
+
+    def next_change(self, t: float) -> float:
+        """Sim time [s] after which a channel that is fresh at ``t`` goes stale (inf if none
+        will): until then, and without a new :meth:`set`, :meth:`current` keeps its value."""
+        ends = [s + self.timeout for s in self._times.values() if t - s <= self.timeout]
+        return min(ends) if ends else math.inf
 
     def stale(self, channel: str, t: float) -> bool:
         """Whether ``channel`` reads as zero because of the timeout."""
@@ -138,6 +147,22 @@ class SimConfig:
     skin: SkinConfig = field(default_factory=SkinConfig)
     command_timeout: float = 0.1
     seed: int = 0
+    timestep: float | None = None
+    """Physics step [s]; ``None`` = the model's 2 ms (the 500 Hz skin sampling period). The
+    lock-step runner, which samples the skin once per 10 ms control period, uses 5 ms: the arm
+    servos and the joint dampers are integrated implicitly and the softest contact time constant
+    is 20 ms, and every scenario's metrics agree with the 2 ms run (docs/phri_sim.md)."""
+
+    def __post_init__(self) -> None:
+        if self.timestep is not None and not (
+            math.isfinite(self.timestep) and MIN_TIMESTEP <= self.timestep <= MAX_TIMESTEP
+        ):
+            raise ValueError(f"physics timestep must be in [{MIN_TIMESTEP}, {MAX_TIMESTEP}] s, "
+                             f"got {self.timestep}")
+
+
+MIN_TIMESTEP, MAX_TIMESTEP = 0.0005, 0.005
+"""Accepted physics steps [s]: at 10 ms the stiff velocity servos and contacts diverge."""
 
 
 class Simulation:
@@ -148,6 +173,8 @@ class Simulation:
     ) -> None:
         self.config = config or SimConfig()
         self.model = scene_spec(parts).compile()
+        if self.config.timestep is not None:
+            self.model.opt.timestep = self.config.timestep
         self.data = mujoco.MjData(self.model)
         m = self.model
         self.dt = float(m.opt.timestep)
@@ -166,13 +193,51 @@ class Simulation:
         self.part_body = {p.name: m.body(p.name).id for p in parts}
         self.part_qpos = {p.name: m.jnt_qposadr[m.joint(p.name + "_free").id] for p in parts}
         self.part_dof = {p.name: m.jnt_dofadr[m.joint(p.name + "_free").id] for p in parts}
-        self.targets: dict[str, PartTarget] = {
-            p.name: PartTarget(np.array(p.parking), np.zeros(3)) for p in parts
-        }
+        n_parts = len(parts)
+        self._part_index = {p.name: i for i, p in enumerate(parts)}
+        self._part_bodies = np.array([self.part_body[p.name] for p in parts], dtype=np.intp)
+        dofs = np.array([self.part_dof[p.name] for p in parts], dtype=np.intp)
+        self._lin_dofs = dofs[:, None] + np.arange(3)
+        self._ang_dofs = dofs[:, None] + np.arange(3, 6)
+        self._k_lin = np.array([p.stiffness for p in parts])
+        self._d_lin = np.array([p.damping for p in parts])
+        self._k_rot = np.array([p.rot_stiffness for p in parts])
+        self._d_rot = np.array([p.rot_damping for p in parts])
+        self._part_body_list = [int(b) for b in self._part_bodies]
+        self._part_dof_list = [int(x) for x in dofs]
+        self._rot_err = np.zeros(3)
+        self._quat = np.zeros(4)
+        self._torque = np.zeros(3)
+        self._torque_world = np.zeros(3)
+        self._target_pos = np.zeros((n_parts, 3))
+        self._target_vel = np.zeros((n_parts, 3))
+        self._target_time = np.zeros(n_parts)
+        self._target_cos = np.ones(n_parts)
+        self._target_sin = np.zeros(n_parts)
+        self.targets: dict[str, PartTarget] = {}
+        for p in parts:
+            self.set_target(p.name, PartTarget(np.array(p.parking), np.zeros(3)))
+        self._yaw_qpos = int(self.qpos_idx[2])
+        self._act_x, self._act_y = int(self.act_idx[0]), int(self.act_idx[1])
+        self._act_rest = self.act_idx[2:]
+        self._cmd = np.zeros(len(JOINT_NAMES))
+        self._cmd_version = -1
+        self._cmd_source: CommandWatchdog | None = None
+        self._cmd_valid_until = -math.inf
+        # Geoms of a part, including those on its tissue layer (a child body of the part).
         self._person_geoms = {
             g: p for p in parts for g in range(m.ngeom)
-            if m.geom_bodyid[g] == self.part_body[p.name]
+            if m.body_rootid[m.geom_bodyid[g]] == self.part_body[p.name]
         }
+        self._tissue_dofs: dict[str, tuple[int, int]] = {}
+        self._tissue_qpos: dict[str, tuple[int, int]] = {}
+        for p in parts:
+            if p.tissue is not None:
+                joints = [m.joint(f"{p.tissue_body}_{a}").id for a in ("x", "y")]
+                self._tissue_qpos[p.name] = (int(m.jnt_qposadr[joints[0]]),
+                                             int(m.jnt_qposadr[joints[1]]))
+                self._tissue_dofs[p.name] = (int(m.jnt_dofadr[joints[0]]),
+                                             int(m.jnt_dofadr[joints[1]]))
 
         # Skins.
         self.patches = {p.name: SkinPatchModel(layout_for_patch(p), self.config.skin)
@@ -182,8 +247,6 @@ class Simulation:
         self.link_body = {link: m.body(link).id for link in self.skin_links}
         self._body_link = {b: link for link, b in self.link_body.items()}
         self._truth: dict[str, LinkGroundTruth] = {}
-        self._rot_err = np.zeros(3)
-        self._quat = np.zeros(4)
         self._dirty = True
         self._contacts: dict[str, list[tuple[int, float]]] = {}
         self.reset()
@@ -205,6 +268,7 @@ class Simulation:
             self.data.qpos[self.qpos_idx] = q
         for name, target in self.targets.items():
             self._place_part(name, target)
+        self._target_time[:] = 0.0
         self.watchdog = CommandWatchdog(self.config.command_timeout)
         self.rng = np.random.default_rng(self.config.seed)
         mujoco.mj_forward(self.model, self.data)
@@ -212,19 +276,58 @@ class Simulation:
 
     def _place_part(self, name: str, target: PartTarget) -> None:
         adr = self.part_qpos[name]
-        self.data.qpos[adr : adr + 3] = target.position
+        self.data.qpos[adr : adr + 3] = target.position if target.rest is None else target.rest
         half = 0.5 * target.yaw
         self.data.qpos[adr + 3 : adr + 7] = (math.cos(half), 0.0, 0.0, math.sin(half))
         dof = self.part_dof[name]
         self.data.qvel[dof : dof + 6] = 0.0
+        if name in self._tissue_qpos:
+            self.data.qpos[list(self._tissue_qpos[name])] = 0.0
+            self.data.qvel[list(self._tissue_dofs[name])] = 0.0
 
     def set_target(self, part: str, target: PartTarget, *, teleport: bool = False) -> None:
-        """Set a part's spring target; ``teleport`` also moves the part there at rest."""
-        if part not in self.targets:
+        """Set a part's spring target (from now on it moves with ``target.velocity`` until the
+        next call); ``teleport`` also moves the part there at rest."""
+        i = self._part_index.get(part)
+        if i is None:
             raise KeyError(f"no person part {part!r}")
         self.targets[part] = target
+        self._target_pos[i] = target.position
+        self._target_vel[i] = target.velocity
+        self._target_time[i] = self.data.time
+        half = 0.5 * target.yaw
+        self._target_cos[i], self._target_sin[i] = math.cos(half), math.sin(half)
         if teleport:
             self._place_part(part, target)
+
+    def tissue_deflection(self, part: str) -> FloatArray:
+        """Displacement of a part's tissue layer from rest in the part's frame (x, y) [m]
+        (zeros for a part without tissue)."""
+        if part not in self._tissue_qpos:
+            return np.zeros(2)
+        return np.asarray(self.data.qpos[list(self._tissue_qpos[part])], dtype=np.float64)
+
+    def settle(self, seconds: float) -> None:
+        """Let the person come to rest against the robot before a run: step ``seconds`` [s]
+        with every servo commanded to zero velocity and the current targets, then set the clock
+        back to 0 (so a scenario starts from a resting contact, not an impact)."""
+        if not (math.isfinite(seconds) and seconds >= 0.0):
+            raise ValueError(f"settle time must be ≥ 0 [s], got {seconds}")
+        self.watchdog = CommandWatchdog(self.config.command_timeout)
+        # The robot is held rigidly where it stands: the velocity servos alone would creep under
+        # the person's load (F / k_v) during the settling, with no controller to correct it.
+        q_robot = self.data.qpos[self.qpos_idx].copy()
+        for _ in range(round(seconds / self.dt)):
+            self._apply_controls()
+            mujoco.mj_step(self.model, self.data)
+            self.data.qpos[self.qpos_idx] = q_robot
+            self.data.qvel[self.dof_idx] = 0.0
+        self.data.time = 0.0
+        self._target_time[:] = 0.0
+        self.data.qvel[self.dof_idx] = 0.0
+        self.watchdog = CommandWatchdog(self.config.command_timeout)
+        mujoco.mj_forward(self.model, self.data)
+        self._dirty = True
 
     @property
     def q(self) -> FloatArray:
@@ -277,32 +380,49 @@ class Simulation:
             mujoco.mj_step(self.model, self.data)
 
     def _apply_controls(self) -> None:
-        u = self.applied_command()
-        yaw = float(self.data.qpos[self.qpos_idx[2]])
-        c, s = math.cos(yaw), math.sin(yaw)
-        rates = u.copy()
-        rates[0] = c * u[0] - s * u[1]
-        rates[1] = s * u[0] + c * u[1]
-        self.data.ctrl[self.act_idx] = rates
         d = self.data
-        xfrc = d.xfrc_applied
-        err = self._rot_err
-        for part in self.parts:
-            b = self.part_body[part.name]
-            dof = self.part_dof[part.name]
-            target = self.targets[part.name]
-            force = part.stiffness * (target.position - d.xpos[b]) + part.damping * (
-                target.velocity - d.qvel[dof : dof + 3]
-            )
+        t = float(d.time)
+        wd = self.watchdog
+        # (Recomputed a hair early at the staleness instant, where t − t_set vs timeout is
+        # decided by rounding.)
+        if wd is not self._cmd_source or wd.version != self._cmd_version or (
+            t >= self._cmd_valid_until - 1e-9
+        ):
+            # The servo set points change only when a command arrives or one goes stale.
+            self._cmd = self.applied_command()
+            self._cmd_version = wd.version
+            self._cmd_source = wd
+            self._cmd_valid_until = wd.next_change(t)
+        u = self._cmd
+        yaw = float(d.qpos[self._yaw_qpos])
+        c, s = math.cos(yaw), math.sin(yaw)
+        ctrl = d.ctrl
+        ctrl[self._act_x] = c * u[0] - s * u[1]
+        ctrl[self._act_y] = s * u[0] + c * u[1]
+        ctrl[self._act_rest] = u[2:]
+        self._person_wrenches(t)
+        self._dirty = True
+
+    def _person_wrenches(self, t: float) -> None:
+        """Spring–damper wrenches of every part towards its target (person.py) [N, N·m]. The
+        target position moves with its velocity from when it was set, so a script evaluated
+        once per control period still drives a smooth target."""
+        d = self.data
+        xfrc, xpos, qvel, xquat = d.xfrc_applied, d.xpos, d.qvel, d.xquat
+        err, quat, torque = self._rot_err, self._quat, self._torque
+        for i, b in enumerate(self._part_body_list):
+            dof = self._part_dof_list[i]
+            lag = t - self._target_time[i]
+            vel = self._target_vel[i]
+            xfrc[b, 0:3] = self._k_lin[i] * (self._target_pos[i] + vel * lag - xpos[b]) + (
+                self._d_lin[i] * (vel - qvel[dof : dof + 3]))
             # Orientation spring: mju_subQuat gives the body-frame rotation vector from the
             # current to the target orientation; the free joint's angular velocity is body-frame.
-            half = 0.5 * target.yaw
-            self._quat[0], self._quat[3] = math.cos(half), math.sin(half)
-            mujoco.mju_subQuat(err, self._quat, d.xquat[b])
-            torque_body = part.rot_stiffness * err - part.rot_damping * d.qvel[dof + 3 : dof + 6]
-            xfrc[b, 0:3] = force
-            xfrc[b, 3:6] = d.xmat[b].reshape(3, 3) @ torque_body
-        self._dirty = True
+            quat[0], quat[3] = self._target_cos[i], self._target_sin[i]
+            mujoco.mju_subQuat(err, quat, xquat[b])
+            torque[:] = self._k_rot[i] * err - self._d_rot[i] * qvel[dof + 3 : dof + 6]
+            mujoco.mju_rotVecQuat(self._torque_world, torque, xquat[b])
+            xfrc[b, 3:6] = self._torque_world
 
     # -- contacts, skin and ground truth --------------------------------------------------------
     def _update_contacts(self) -> None:
@@ -357,9 +477,9 @@ class Simulation:
         axis = d.geom_xmat[geom].reshape(3, 3)[:, 2] * float(m.geom_size[geom][1])
         return CapsuleShape(pos - axis, pos + axis, radius)
 
-    def skin_forces(self, noise: bool = True) -> dict[str, FloatArray]:
-        """Per-patch taxel forces [N] now (patch → (N,)), footprint model of :mod:`phri_sim.skin`,
-        plus sensor noise when ``noise``."""
+    def clean_skin_forces(self) -> dict[str, FloatArray]:
+        """Per-patch noise-free taxel forces [N] now (patch → (N,)), the footprint model of
+        :mod:`phri_sim.skin`; an untouched patch is all zeros."""
         self._update_contacts()
         out: dict[str, FloatArray] = {}
         for name, patch in self.patches.items():
@@ -371,8 +491,21 @@ class Simulation:
             else:
                 forces = np.zeros(patch.size)
             self._truth[link].skin_force = float(forces.sum())
-            out[name] = patch.add_noise(forces, self.rng) if noise else forces
+            out[name] = forces
         return out
+
+    def add_skin_noise(self, patch: str, forces: FloatArray) -> FloatArray:
+        """One sample of a patch's sensor noise added to ``forces`` (new array, clipped at 0);
+        draws from the simulation's seeded generator."""
+        return self.patches[patch].add_noise(forces, self.rng)
+
+    def skin_forces(self, noise: bool = True) -> dict[str, FloatArray]:
+        """Per-patch taxel forces [N] now (patch → (N,)), footprint model of :mod:`phri_sim.skin`,
+        plus sensor noise when ``noise``."""
+        clean = self.clean_skin_forces()
+        if not noise:
+            return clean
+        return {name: self.add_skin_noise(name, forces) for name, forces in clean.items()}
 
     def ground_truth(self) -> Mapping[str, LinkGroundTruth]:
         """True contact per skin link at the current state (see :class:`LinkGroundTruth`)."""

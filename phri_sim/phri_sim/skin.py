@@ -78,7 +78,16 @@ class SphereShape:
 
     def signed_distance(self, points: FloatArray) -> FloatArray:
         """Signed distance [m] of (N, 3) points to the surface (negative inside)."""
-        return np.asarray(np.linalg.norm(points - self.center, axis=1) - self.radius)
+        d = points - self.center
+        return np.asarray(np.sqrt(np.einsum("ij,ij->i", d, d)) - self.radius)
+
+    def in_frame(self, rotation: FloatArray, position: FloatArray) -> SphereShape:
+        """The same sphere in a frame with pose (⁰R, ⁰p) in the world."""
+        return SphereShape(rotation.T @ (self.center - position), self.radius)
+
+    def bounding_sphere(self) -> tuple[FloatArray, float]:
+        """(centre, radius) [m] of a sphere enclosing the shape."""
+        return self.center, self.radius
 
 
 @dataclass(frozen=True)
@@ -93,11 +102,21 @@ class CapsuleShape:
         """Signed distance [m] of (N, 3) points to the surface (negative inside)."""
         ab = self.b - self.a
         denom = float(ab @ ab)
-        t = np.zeros(points.shape[0]) if denom <= 0.0 else np.clip(
-            (points - self.a) @ ab / denom, 0.0, 1.0
-        )
-        closest = self.a + t[:, None] * ab
-        return np.asarray(np.linalg.norm(points - closest, axis=1) - self.radius)
+        ap = points - self.a
+        if denom > 0.0:
+            t = np.clip(ap @ (ab / denom), 0.0, 1.0)
+            ap -= t[:, None] * ab
+        return np.asarray(np.sqrt(np.einsum("ij,ij->i", ap, ap)) - self.radius)
+
+    def in_frame(self, rotation: FloatArray, position: FloatArray) -> CapsuleShape:
+        """The same capsule in a frame with pose (⁰R, ⁰p) in the world."""
+        return CapsuleShape(rotation.T @ (self.a - position), rotation.T @ (self.b - position),
+                            self.radius)
+
+    def bounding_sphere(self) -> tuple[FloatArray, float]:
+        """(centre, radius) [m] of a sphere enclosing the shape."""
+        half = 0.5 * float(np.linalg.norm(self.b - self.a))
+        return 0.5 * (self.a + self.b), half + self.radius
 
 
 Shape = SphereShape | CapsuleShape
@@ -150,13 +169,21 @@ class SkinPatchModel:
             contacts: (person geom shape, normal force [N] between it and this link).
         """
         out = np.zeros(self.size)
-        world: FloatArray | None = None
+        h = self.config.softness
         for shape, normal_force in contacts:
             if normal_force <= 0.0:
                 continue
-            if world is None:
-                world = self.taxels_in_world(rotation, position)
-            out += distribute(normal_force, footprint_weights(world, shape, self.config.softness))
+            # In the link frame (the taxel positions are stored there), and only for taxels
+            # that can be within the compliant layer of the shape: the footprint is a few cm
+            # across, the patch thousands of taxels.
+            local = shape.in_frame(rotation, position)
+            centre, reach = local.bounding_sphere()
+            d = self.positions - centre
+            near = np.flatnonzero(np.einsum("ij,ij->i", d, d) < (reach + h) ** 2)
+            if near.size == 0:
+                continue
+            weights = footprint_weights(self.positions[near], local, h)
+            out[near] += distribute(normal_force, weights)
         return out
 
     def add_noise(self, forces: FloatArray, rng: np.random.Generator) -> FloatArray:

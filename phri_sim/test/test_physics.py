@@ -1,0 +1,192 @@
+"""The person's physics: soft waist tissue, smooth contacts, spring wrenches, hand paths.
+
+Each test checks a physical law or a contract against an independent reference (Hooke's law on
+the tissue springs, MuJoCo's own quaternion difference, finite differences of the motion
+profiles), not numbers copied from a run.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from phri_sim.person import LEFT_HAND, PERSON_PARTS, TORSO, PartTarget
+from phri_sim.scenarios import (
+    HAND_TRAVEL,
+    SCENARIOS,
+    WALTZ_FORCE,
+    Press,
+    hand_schedule,
+    minimum_jerk,
+    minimum_jerk_rate,
+    start_scenario,
+    waltz_contact,
+)
+from phri_sim.sim import CommandWatchdog, SimConfig, Simulation
+from phri_sim.skin import SkinConfig
+
+
+def _quiet_sim(**kwargs: object) -> Simulation:
+    return Simulation(SimConfig(skin=SkinConfig(noise_std=0.0), **kwargs))  # type: ignore[arg-type]
+
+
+def _hold_robot(sim: Simulation, seconds: float) -> list[float]:
+    """Step with zero commands; return the waist–forearm normal force at every physics step."""
+    forces = []
+    for _ in range(round(seconds / sim.dt)):
+        for channel, n in (("base", 3), ("left", 6), ("right", 6)):
+            sim.command(channel, np.zeros(n))
+        sim.step()
+        sim._dirty = True
+        forces.append(sim.ground_truth()["left_forearm_link"].normal_force)
+    return forces
+
+
+def test_waltz_starts_resting_at_the_preload() -> None:
+    """After the settling the waist presses the forearm with the 10 N preload, and the tissue is
+    compressed by F / K_t (Hooke's law of the layer's springs)."""
+    sim = _quiet_sim()
+    start_scenario(sim, SCENARIOS["waltz"])
+    assert sim.time == 0.0
+    force = sim.ground_truth()["left_forearm_link"].normal_force
+    assert force == pytest.approx(WALTZ_FORCE, rel=0.1)
+    assert TORSO.tissue is not None
+    deflection = float(np.linalg.norm(sim.tissue_deflection("person_torso")))
+    assert deflection == pytest.approx(force / TORSO.tissue.stiffness, rel=0.05)
+    # The layer is pushed away from the forearm, i.e. opposite to the waist→forearm direction.
+    _, inward = waltz_contact(sim)
+    yaw = 0.0
+    c, s = math.cos(yaw), math.sin(yaw)
+    d = sim.tissue_deflection("person_torso")
+    world = np.array([c * d[0] - s * d[1], s * d[0] + c * d[1]])
+    assert float(world @ inward[:2]) < 0.0
+
+
+def test_tissue_is_at_least_critically_damped() -> None:
+    assert TORSO.tissue is not None
+    assert TORSO.tissue.damping_ratio >= 1.0
+    # Softer than the robot's admittance damping, so the delayed loop does not ring.
+    assert TORSO.tissue.damping < 200.0
+
+
+def test_turning_waist_keeps_a_continuous_contact() -> None:
+    """The torso turns against the held forearm (as in the waltz's second box): the contact
+    force must not drop to zero at any physics step (a stiff contact flickers on and off under
+    a sliding, turning body)."""
+    sim = _quiet_sim()
+    script = start_scenario(sim, SCENARIOS["waltz"])
+    base = script(0.0)["person_torso"]
+    omega = -0.5  # rad/s, the waltz turn's peak rate
+    forces = []
+    for k in range(50):  # 1 s in 20 ms target updates
+        t = k * 0.02
+        sim.set_target("person_torso", PartTarget(base.position, np.zeros(3), omega * t))
+        forces.extend(_hold_robot(sim, 0.02))
+    assert min(forces) > 0.3 * WALTZ_FORCE
+
+
+def test_person_wrench_matches_mujoco_quaternion_difference() -> None:
+    """The vectorised spring–damper wrench equals the per-part formula with mju_subQuat."""
+    sim = _quiet_sim()
+    rng = np.random.default_rng(4)
+    for part in PERSON_PARTS:
+        adr = sim.part_qpos[part.name]
+        q = rng.normal(size=4)
+        sim.data.qpos[adr + 3 : adr + 7] = q / np.linalg.norm(q)
+        dof = sim.part_dof[part.name]
+        sim.data.qvel[dof : dof + 6] = rng.normal(size=6)
+        sim.set_target(part.name, PartTarget(rng.normal(size=3), rng.normal(size=3),
+                                             float(rng.uniform(-3, 3))))
+    mujoco.mj_forward(sim.model, sim.data)
+    sim._person_wrenches(sim.time)
+    for part in PERSON_PARTS:
+        b = sim.part_body[part.name]
+        dof = sim.part_dof[part.name]
+        target = sim.targets[part.name]
+        force = part.stiffness * (target.position - sim.data.xpos[b]) + part.damping * (
+            target.velocity - sim.data.qvel[dof : dof + 3])
+        quat = np.array([math.cos(0.5 * target.yaw), 0.0, 0.0, math.sin(0.5 * target.yaw)])
+        err = np.zeros(3)
+        mujoco.mju_subQuat(err, quat, sim.data.xquat[b])
+        torque = sim.data.xmat[b].reshape(3, 3) @ (
+            part.rot_stiffness * err - part.rot_damping * sim.data.qvel[dof + 3 : dof + 6])
+        np.testing.assert_allclose(sim.data.xfrc_applied[b, :3], force, atol=1e-9)
+        np.testing.assert_allclose(sim.data.xfrc_applied[b, 3:], torque, atol=1e-9)
+
+
+def test_target_moves_with_its_velocity_between_updates() -> None:
+    sim = _quiet_sim()
+    target = PartTarget(np.array(LEFT_HAND.parking), np.array([0.1, 0.0, 0.0]))
+    sim.set_target("person_left_hand", target)
+    sim.step(10)
+    sim._person_wrenches(sim.time)
+    i = sim._part_index["person_left_hand"]
+    moved = sim._target_pos[i] + sim._target_vel[i] * (sim.time - sim._target_time[i])
+    np.testing.assert_allclose(moved, target.position + target.velocity * sim.time, atol=1e-12)
+
+
+@given(st.floats(0.0, 1.0))
+def test_minimum_jerk_rate_is_its_derivative(x: float) -> None:
+    duration, h = 2.0, 1e-6
+    lo, hi = max(x - h, 0.0), min(x + h, 1.0)
+    numeric = (minimum_jerk(hi) - minimum_jerk(lo)) / ((hi - lo) * duration) if hi > lo else 0.0
+    assert minimum_jerk_rate(x, duration) == pytest.approx(numeric, abs=1e-5)
+    assert -1e-12 <= minimum_jerk(x) <= 1.0 + 1e-12
+
+
+@settings(max_examples=12, deadline=None)
+@given(st.lists(st.tuples(st.floats(0.5, 30.0), st.floats(1.0, 3.0)), min_size=1, max_size=4,
+                unique_by=lambda p: round(p[0])),
+       st.floats(0.5, 3.0))
+def test_hand_never_jumps(presses: list[tuple[float, float]], distance: float) -> None:
+    """Whatever the press schedule, the hand's target moves continuously (a leap of the spring
+    target would throw the hand at the robot): between two samples it moves at most
+    what the fastest travel or press ramp allows (sampled every 4 ms)."""
+    rng = np.random.default_rng(int(distance * 1000))
+    plan = []
+    t_next = 0.0
+    for start, length in sorted(presses):
+        t_on = max(start, t_next)
+        point = rng.normal(size=3)
+        normal = np.array([0.0, 0.0, 1.0])
+        plan.append(Press(t_on, t_on + length, point, normal, 15.0))
+        t_next = t_on + length + 0.5 + 0.25 + HAND_TRAVEL
+    rest = np.array([distance, 0.0, 0.0])
+    hand = hand_schedule(rest, plan)
+    dt = 4e-3
+    times = np.arange(0.0, t_next + 1.0, dt)
+    path = np.array([hand(float(t)).position for t in times])
+    steps = np.linalg.norm(np.diff(path, axis=0), axis=1)
+    span = max(float(np.linalg.norm(p.point - q.point)) for p in plan for q in plan) + distance
+    max_speed = 1.875 * (span + np.linalg.norm(plan[0].point) + 1.0) / HAND_TRAVEL + 1.0
+    assert float(steps.max()) <= max_speed * dt
+
+
+def test_watchdog_next_change_is_when_a_command_goes_stale() -> None:
+    wd = CommandWatchdog(0.1)
+    assert wd.next_change(0.0) == math.inf
+    wd.set("left", np.ones(6), 1.0)
+    wd.set("base", np.ones(3), 1.05)
+    assert wd.next_change(1.06) == pytest.approx(1.1)
+    assert not wd.stale("left", 1.0999) and wd.stale("left", 1.1001)
+    assert wd.next_change(1.11) == pytest.approx(1.15)
+
+
+def test_refuses_a_timestep_that_diverges() -> None:
+    with pytest.raises(ValueError, match="timestep"):
+        SimConfig(timestep=0.01)
+
+
+def test_coarser_step_keeps_the_contact_force() -> None:
+    """The lock-step runner's 5 ms step reproduces the 2 ms resting contact (same settling)."""
+    forces = []
+    for dt in (0.002, 0.005):
+        sim = _quiet_sim(timestep=dt)
+        start_scenario(sim, SCENARIOS["waltz"])
+        forces.append(np.mean(_hold_robot(sim, 0.5)))
+    assert forces[1] == pytest.approx(forces[0], rel=0.03)
