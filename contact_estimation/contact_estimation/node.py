@@ -60,6 +60,9 @@ PARAMS: list[ParamSpec] = [
               low=0.0, high=10.0),
     ParamSpec("marker_torque_scale", 0.1, "torque arrow length per N·m", unit="m/(N·m)",
               low=0.0, high=10.0),
+    ParamSpec("geometry_check_interval", 50, "compare a patch's taxel positions/normals with "
+              "the known layout every N-th frame (a changed taxel count is always caught); 1 = "
+              "every frame", unit="frames", low=1, high=1_000_000),
     ParamSpec("diagnostics_period", 1.0, "period of the /diagnostics report", unit="s",
               low=0.05, high=3600.0),
 ]
@@ -147,7 +150,9 @@ class ContactEstimationNode(Node):
                 raise InvalidTaxelData(
                     f"frame_id {taxels.frame_id!r}, expected the patch's link {link!r}"
                 )
-            state = self._estimator.update(patch, taxels)
+            interval = int(self._values["geometry_check_interval"])
+            check = self._received[patch] % interval == 1 or interval == 1
+            state = self._estimator.update(patch, taxels, check_geometry=check)
         except (TaxelMessageError, InvalidTaxelData) as err:
             self._refused[patch] += 1
             self._last_error[patch] = str(err)

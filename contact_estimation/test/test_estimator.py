@@ -288,3 +288,16 @@ def test_batched_estimate_matches_one_link_at_a_time() -> None:
         assert states[link].taxel_count == expected.taxel_count
         np.testing.assert_allclose(states[link].torque, expected.torque, atol=1e-12)
         np.testing.assert_allclose(states[link].region_max, expected.region_max)
+
+
+def test_geometry_check_can_be_skipped_but_a_new_taxel_count_is_always_caught() -> None:
+    positions, normals = flat_grid()
+    est = ContactEstimator({"p": "l"})
+    first = est.update("p", taxels(positions, normals, np.ones(60)))
+    moved = positions + np.array([1.0, 0.0, 0.0])
+    skipped = est.update("p", taxels(moved, normals, np.ones(60)), check_geometry=False)
+    np.testing.assert_allclose(skipped.center, first.center)  # not compared: old layout kept
+    checked = est.update("p", taxels(moved, normals, np.ones(60)), check_geometry=True)
+    np.testing.assert_allclose(checked.center, first.center + np.array([1.0, 0.0, 0.0]))
+    fewer = est.update("p", taxels(moved[:30], normals[:30], np.ones(30)), check_geometry=False)
+    assert fewer.taxel_count == 30

@@ -260,7 +260,9 @@ class WholeBodyControllerNode(Node):
         self.right_pub.publish(arm_command(command[9:15], self.right_joints))
         frame = str(self.params["world_frame"])
         for task, error in zip(result.tasks, result.tracking_errors, strict=True):
-            self.state_pubs[task.link].publish(task_state_to_msg(task, error, now_ns, frame))
+            pub = self.state_pubs[task.link]
+            if pub.get_subscription_count() > 0:  # debugging output: skip when nobody listens
+                pub.publish(task_state_to_msg(task, error, now_ns, frame))
         self.good_cycles += 1
 
     def destroy_node(self) -> None:
