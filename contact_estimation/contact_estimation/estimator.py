@@ -201,6 +201,7 @@ class ContactEstimator:
         self._link_starts = []
         for patches in self.links.values():
             self._link_starts.append(self._columns[patches[0]][0])
+        self._link_items = list(self.links.items())
         self._link_starts.append(start)
 
     def set_geometry(
@@ -301,14 +302,18 @@ class ContactEstimator:
         sums = np.add.reduceat(gathered, bounds, axis=1).T.tolist()
         lows = np.minimum.reduceat(gathered[_P], bounds, axis=1).T.tolist()
         highs = np.maximum.reduceat(gathered[_P], bounds, axis=1).T.tolist()
-        counts = np.diff(bounds).tolist()
+        bounds_list = bounds.tolist()
         wp, w_row = (_WP, _W) if self._weighted else (_P, None)
-        states = {}
-        for i, (link, patches) in enumerate(self.links.items()):
-            stamp = max(self._stamps[p] for p in patches)
+        lim = self._limit
+        rows: list[list[float]] = []  # per contacting link: centre, force, torque, min, max
+        contacting_links: list[tuple[int, str, int, int]] = []
+        states: dict[str, ContactState] = {}
+        for i, (link, patches) in enumerate(self._link_items):
+            stamp = max([self._stamps[p] for p in patches])
             s = sums[i]
-            w = float(counts[i]) if w_row is None else s[w_row]
-            if counts[i] == 0 or w <= 0.0:
+            count = bounds_list[i + 1] - bounds_list[i]
+            w = float(count) if w_row is None else s[w_row]
+            if count == 0 or w <= 0.0:
                 # No taxel over σ_t, or only taxels with ω = 0 (declared insensitive): the
                 # centre (5) is undefined and there is no contact.
                 states[link] = ContactState.no_contact(link, stamp)
@@ -320,20 +325,28 @@ class ContactEstimator:
             tx = mx - (cy * fz - cz * fy)
             ty = my - (cz * fx - cx * fz)
             tz = mz - (cx * fy - cy * fx)
-            lim = self._limit
-            states[link] = ContactState(
-                link=link,
-                stamp_ns=stamp,
-                in_contact=True,
-                center=np.array((cx, cy, cz)),
-                force=np.array((fx, fy, fz)),
-                torque=np.array(
-                    (_clamp(tx, lim[0]), _clamp(ty, lim[1]), _clamp(tz, lim[2]))
-                ),
-                region_min=np.array(lows[i]),
-                region_max=np.array(highs[i]),
-                taxel_count=int(counts[i]),
+            rows.append(
+                [cx, cy, cz, fx, fy, fz,
+                 _clamp(tx, lim[0]), _clamp(ty, lim[1]), _clamp(tz, lim[2]),
+                 *lows[i], *highs[i]]
             )
+            contacting_links.append((len(rows) - 1, link, stamp, count))
+        if rows:
+            # One array for every contacting link; each state holds views of its own row.
+            table = np.array(rows)
+            for r, link, stamp, count in contacting_links:
+                row = table[r]
+                states[link] = ContactState(
+                    link=link,
+                    stamp_ns=stamp,
+                    in_contact=True,
+                    center=row[0:3],
+                    force=row[3:6],
+                    torque=row[6:9],
+                    region_min=row[9:12],
+                    region_max=row[12:15],
+                    taxel_count=count,
+                )
         return states
 
 
