@@ -20,7 +20,7 @@ pick_python() {
 }
 
 stamp_of_inputs() {
-    cat requirements.txt "${PACKAGES[@]/%//setup.cfg}" "${PACKAGES[@]/%//package.xml}" | sha256sum | cut -d' ' -f1
+    cat setup.sh requirements.txt "${PACKAGES[@]/%//setup.cfg}" "${PACKAGES[@]/%//package.xml}" | sha256sum | cut -d' ' -f1
 }
 
 STAMP_FILE=.venv/.phri-setup-stamp
@@ -39,6 +39,7 @@ echo "setup.sh: installing dependencies (first run takes about a minute)"
 .venv/bin/python -m pip install --quiet --disable-pip-version-check -r requirements.txt
 editable=()
 for pkg in "${PACKAGES[@]}"; do editable+=(-e "./$pkg"); done
-PYTHONWARNINGS=ignore .venv/bin/python -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation "${editable[@]}"
+PYTHONWARNINGS=ignore .venv/bin/python -m pip install --quiet --disable-pip-version-check --no-deps \
+    --no-build-isolation "${editable[@]}"
 stamp_of_inputs > "$STAMP_FILE"
 echo "setup.sh: done; commands are in .venv/bin (phri, skin_driver_node, contact_estimation_node, ...)"

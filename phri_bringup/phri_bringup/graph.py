@@ -254,7 +254,7 @@ def robot_description_urdf() -> str:
     import importlib
 
     try:
-        module = importlib.import_module("phri_description.urdf")
+        module = importlib.import_module("phri_description.urdf_writer")
     except ImportError:
         module = None
     if module is not None:

@@ -1,0 +1,165 @@
+"""URDF writer for the robot description (robot_state_publisher, rviz, Foxglove).
+
+The description stores joints the D-H way (child = parent · Motion(axis, q) · offset), URDF the
+other way round (child = parent · origin · Motion(axis, q)). To keep every link frame of the URDF
+exactly the description's (D-H) frame, a moving joint with a non-identity offset becomes two URDF
+joints: the moving joint into a massless helper link ``<child>_motion`` and a fixed joint
+``<joint>_offset`` carrying the offset into the child. TF therefore holds every D-H frame the
+skins, contacts and controller use.
+
+Regenerate the checked-in file with ``python -m phri_description.urdf_writer``.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+from phri_description.description import Geom, Joint, Link, RobotDescription, robot_description
+from phri_description.transforms import rpy_from_matrix
+
+URDF_PATH = Path(__file__).resolve().parent.parent / "urdf" / "phri_robot.urdf"
+"""The checked-in URDF (installed to ``share/phri_description/urdf/``)."""
+
+
+def _f(x: float) -> str:
+    return f"{x + 0.0:.9g}"  # + 0.0 turns -0.0 into 0
+
+
+def _origin(xyz: np.ndarray | tuple[float, ...], rot: np.ndarray) -> str:
+    rpy = rpy_from_matrix(np.asarray(rot, dtype=float))
+    return (
+        f'<origin xyz="{" ".join(_f(float(v)) for v in xyz)}" '
+        f'rpy="{" ".join(_f(float(v)) for v in rpy)}"/>'
+    )
+
+
+def _geometry(geom: Geom) -> str:
+    if geom.shape == "box":
+        size = " ".join(_f(2.0 * v) for v in geom.size)
+        return f'<geometry><box size="{size}"/></geometry>'
+    if geom.shape == "cylinder":
+        return (
+            f'<geometry><cylinder radius="{_f(geom.size[0])}" '
+            f'length="{_f(2.0 * geom.size[1])}"/></geometry>'
+        )
+    return f'<geometry><sphere radius="{_f(geom.size[0])}"/></geometry>'
+
+
+def _link(link: Link) -> list[str]:
+    out = [f"  <link name={quoteattr(link.name)}>"]
+    if link.inertial is not None:
+        inertia = np.asarray(link.inertial.inertia, dtype=float)
+        out += [
+            "    <inertial>",
+            f"      {_origin(link.inertial.com, np.eye(3))}",
+            f'      <mass value="{_f(link.inertial.mass)}"/>',
+            f'      <inertia ixx="{_f(inertia[0, 0])}" ixy="{_f(inertia[0, 1])}" '
+            f'ixz="{_f(inertia[0, 2])}" iyy="{_f(inertia[1, 1])}" iyz="{_f(inertia[1, 2])}" '
+            f'izz="{_f(inertia[2, 2])}"/>',
+            "    </inertial>",
+        ]
+    for geom in link.geoms:
+        origin = _origin(geom.pos, geom.rotation())
+        rgba = " ".join(_f(v) for v in geom.rgba)
+        out += [
+            f"    <visual name={quoteattr(geom.name)}>",
+            f"      {origin}",
+            f"      {_geometry(geom)}",
+            f'      <material name={quoteattr(geom.name + "_material")}>'
+            f'<color rgba="{rgba}"/></material>',
+            "    </visual>",
+            f"    <collision name={quoteattr(geom.name)}>",
+            f"      {origin}",
+            f"      {_geometry(geom)}",
+            "    </collision>",
+        ]
+    out.append("  </link>")
+    return out
+
+
+def _limit(joint: Joint) -> str:
+    lower = joint.lower if math.isfinite(joint.lower) else -1e6
+    upper = joint.upper if math.isfinite(joint.upper) else 1e6
+    return (
+        f'<limit lower="{_f(lower)}" upper="{_f(upper)}" effort="{_f(joint.effort)}" '
+        f'velocity="{_f(joint.velocity)}"/>'
+    )
+
+
+def _joint(joint: Joint) -> tuple[list[str], list[str]]:
+    """URDF joint elements and helper link names for one description joint."""
+    offset_rot = joint.offset_matrix()
+    offset_pos = joint.offset_vector()
+    if joint.kind == "fixed":
+        return [
+            f'  <joint name={quoteattr(joint.name)} type="fixed">',
+            f"    <parent link={quoteattr(joint.parent)}/>",
+            f"    <child link={quoteattr(joint.child)}/>",
+            f"    {_origin(offset_pos, offset_rot)}",
+            "  </joint>",
+        ], []
+    identity_offset = np.allclose(offset_rot, np.eye(3)) and not np.any(offset_pos)
+    moving_child = joint.child if identity_offset else f"{joint.child}_motion"
+    kind = "prismatic" if joint.kind == "prismatic" else "revolute"
+    if kind == "revolute" and not (math.isfinite(joint.lower) and math.isfinite(joint.upper)):
+        kind = "continuous"
+    out = [
+        f'  <joint name={quoteattr(joint.name)} type="{kind}">',
+        f"    <parent link={quoteattr(joint.parent)}/>",
+        f"    <child link={quoteattr(moving_child)}/>",
+        f"    {_origin((0.0, 0.0, 0.0), np.eye(3))}",
+        f'    <axis xyz="{" ".join(_f(v) for v in joint.axis)}"/>',
+        f"    {_limit(joint)}",
+        "  </joint>",
+    ]
+    if identity_offset:
+        return out, []
+    out += [
+        f'  <joint name={quoteattr(joint.name + "_offset")} type="fixed">',
+        f"    <parent link={quoteattr(moving_child)}/>",
+        f"    <child link={quoteattr(joint.child)}/>",
+        f"    {_origin(offset_pos, offset_rot)}",
+        "  </joint>",
+    ]
+    return out, [moving_child]
+
+
+def urdf_string(description: RobotDescription | None = None) -> str:
+    """The robot as a URDF document (link frames = the description's D-H frames)."""
+    desc = description or robot_description()
+    lines = [
+        '<?xml version="1.0"?>',
+        "<!-- Generated by phri_description.urdf from phri_description.description: do not edit."
+        " Regenerate with: python -m phri_description.urdf_writer -->",
+        f"<robot name={quoteattr(desc.name)}>",
+    ]
+    joint_lines: list[str] = []
+    helpers: list[str] = []
+    for joint in desc.joints:
+        elements, extra = _joint(joint)
+        joint_lines += elements
+        helpers += extra
+    for link in desc.links:
+        lines += _link(link)
+    for name in helpers:
+        lines.append(f"  <link name={quoteattr(name)}/>")
+    lines += joint_lines
+    lines.append("</robot>")
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    """Write the checked-in URDF (or the path given as the only argument)."""
+    path = Path(sys.argv[1]) if len(sys.argv) > 1 else URDF_PATH
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(urdf_string(), encoding="utf-8")
+    print(f"wrote {path}")
+
+
+if __name__ == "__main__":
+    main()

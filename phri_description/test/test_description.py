@@ -1,0 +1,135 @@
+"""The robot description, its URDF and MuJoCo model agree with the UR16e D-H table (design §5)."""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+
+import mujoco
+import numpy as np
+import pytest
+
+from phri_description.description import JOINT_NAMES, SKIN_LINKS, robot_description
+from phri_description.mujoco_model import build_model
+from phri_description.urdf_writer import URDF_PATH, urdf_string
+
+# design §5, written out again here so the test does not read the values it checks
+D = [0.1807, 0.0, 0.0, 0.17415, 0.11985, 0.11655]
+A = [0.0, -0.4784, -0.36, 0.0, 0.0, 0.0]
+ALPHA = [math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0]
+VEL = [math.radians(v) for v in (120, 120, 180, 180, 180, 180)]
+POS = [2 * math.pi, 2 * math.pi, math.pi, 2 * math.pi, 2 * math.pi, 2 * math.pi]
+UR_JOINTS = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint",
+             "wrist_2_joint", "wrist_3_joint"]
+UR_LINKS = ["shoulder_link", "upper_arm_link", "forearm_link", "wrist_1_link", "wrist_2_link",
+            "wrist_3_link"]
+
+
+def dh(theta: float, d: float, a: float, alpha: float) -> np.ndarray:
+    ct, st, ca, sa = math.cos(theta), math.sin(theta), math.cos(alpha), math.sin(alpha)
+    return np.array([[ct, -st * ca, st * sa, a * ct], [st, ct * ca, -ct * sa, a * st],
+                     [0.0, sa, ca, d], [0.0, 0.0, 0.0, 1.0]])
+
+
+def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    cr, sr, cp, sp, cy, sy = (math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch),
+                              math.cos(yaw), math.sin(yaw))
+    rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
+    ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
+    rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
+    return rz @ ry @ rx
+
+
+def axis_motion(kind: str, axis: np.ndarray, q: float) -> np.ndarray:
+    t = np.eye(4)
+    if kind == "prismatic":
+        t[:3, 3] = axis * q
+        return t
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    t[:3, :3] = np.eye(3) + math.sin(q) * k + (1 - math.cos(q)) * k @ k  # Rodrigues
+    return t
+
+
+def urdf_link_poses(root: ET.Element, q: dict[str, float]) -> dict[str, np.ndarray]:
+    """World pose of every URDF link, composing origin · motion along the joint tree."""
+    joints = {j.find("child").get("link"): j for j in root.iter("joint")}  # type: ignore[union-attr]
+    poses: dict[str, np.ndarray] = {}
+
+    def pose(link: str) -> np.ndarray:
+        if link in poses:
+            return poses[link]
+        joint = joints.get(link)
+        if joint is None:
+            poses[link] = np.eye(4)
+            return poses[link]
+        origin = joint.find("origin")
+        t = np.eye(4)
+        if origin is not None:
+            t[:3, 3] = [float(v) for v in origin.get("xyz", "0 0 0").split()]
+            t[:3, :3] = rpy_matrix(*[float(v) for v in origin.get("rpy", "0 0 0").split()])
+        kind = joint.get("type", "fixed")
+        if kind != "fixed":
+            axis = np.array([float(v) for v in joint.find("axis").get("xyz").split()])  # type: ignore[union-attr]
+            t = t @ axis_motion(kind, axis, q[joint.get("name", "")])
+        parent = joint.find("parent").get("link")  # type: ignore[union-attr]
+        poses[link] = pose(parent) @ t  # type: ignore[arg-type]
+        return poses[link]
+
+    for link in root.iter("link"):
+        pose(link.get("name", ""))
+    return poses
+
+
+def test_checked_in_urdf_is_the_generated_one() -> None:
+    assert URDF_PATH.read_text(encoding="utf-8") == urdf_string(), (
+        "phri_description/urdf/phri_robot.urdf is stale: run python -m phri_description.urdf_writer"
+    )
+
+
+def test_urdf_declares_the_joints_and_limits_of_design_5() -> None:
+    root = ET.fromstring(urdf_string())
+    moving = {j.get("name"): j for j in root.iter("joint") if j.get("type") != "fixed"}
+    assert set(moving) == set(JOINT_NAMES)
+    for side in ("left", "right"):
+        for i, name in enumerate(UR_JOINTS):
+            limit = moving[f"{side}_{name}"].find("limit")
+            assert limit is not None
+            assert float(limit.get("velocity", "nan")) == pytest.approx(VEL[i])
+            assert float(limit.get("upper", "nan")) == pytest.approx(POS[i])
+            assert float(limit.get("lower", "nan")) == pytest.approx(-POS[i])
+    links = {link.get("name") for link in root.iter("link")}
+    assert set(SKIN_LINKS) <= links
+
+
+def test_urdf_link_frames_are_the_dh_frames() -> None:
+    root = ET.fromstring(urdf_string())
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        values = rng.uniform(-math.pi, math.pi, len(JOINT_NAMES))
+        q = dict(zip(JOINT_NAMES, values, strict=True))
+        poses = urdf_link_poses(root, q)
+        for side in ("left", "right"):
+            frame = poses[f"{side}_base_link"]  # D-H frame 0 (mounting checked in kinematics)
+            for i, link in enumerate(UR_LINKS):
+                frame = frame @ dh(q[f"{side}_{UR_JOINTS[i]}"], D[i], A[i], ALPHA[i])
+                np.testing.assert_allclose(poses[f"{side}_{link}"], frame, atol=1e-7,
+                                           err_msg=f"{side}_{link}")
+        # the planar base: x, y in odom, then yaw
+        base = poses["base_link"]
+        np.testing.assert_allclose(base[:2, 3], [q["base_x"], q["base_y"]], atol=1e-9)
+        assert math.atan2(base[1, 0], base[0, 0]) == pytest.approx(
+            math.atan2(math.sin(q["base_yaw"]), math.cos(q["base_yaw"])))
+
+
+def test_mujoco_joint_ranges_are_radians() -> None:
+    # Regression: MjSpec defaults to degrees; ±2π compiled as ±6.28° before the fix.
+    model = build_model()
+    for side in ("left", "right"):
+        for i, name in enumerate(UR_JOINTS):
+            jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, f"{side}_{name}")
+            np.testing.assert_allclose(model.jnt_range[jid], [-POS[i], POS[i]])
+
+
+def test_skin_patches_are_on_the_three_skin_links() -> None:
+    patches = robot_description().patches
+    assert sorted(p.link for p in patches) == sorted(SKIN_LINKS)
