@@ -1,9 +1,9 @@
 """Benchmark: the contact estimation node over ROS, 3 patches × N taxels at 500 Hz.
 
-Starts ``contact_estimation_node`` as its own process, publishes three taxel arrays at the skin
-rate from this process (stamped with the publish time) and subscribes to the three contact-state
-topics. Prints the received rate per link, drops, latency from publish to reception of the
-contact state (median / p99) and the node's CPU use.
+Starts ``contact_estimation_node`` as its own process and a publisher process that sends three
+taxel arrays at the skin rate (stamped with the publish time); this process subscribes to the
+three contact-state topics. Prints the received rate per link, drops, latency from publish to
+reception of the contact state (median / p99) and the node's CPU use.
 
 Run: ``.venv/bin/python bench/bench_contact_estimation_ros.py [--seconds 10] [--taxels 2000]``
 """
@@ -11,12 +11,13 @@ Run: ``.venv/bin/python bench/bench_contact_estimation_ros.py [--seconds 10] [--
 from __future__ import annotations
 
 import argparse
+import multiprocessing
 import os
 import subprocess
 import sys
-import threading
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import rclpy
@@ -35,6 +36,37 @@ PATCHES = {"left_upper_arm": "left_upper_arm_link", "left_forearm": "left_forear
 def cpu_seconds(pid: int) -> float:
     fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def publish(seconds: float, taxels: int, rate: float, ready: Any, done: Any) -> None:
+    """Publisher process: three patches at ``rate`` for ``seconds`` (frames are never skipped)."""
+    rclpy.init()
+    node = rclpy.create_node("bench_taxel_publisher")
+    rng = np.random.default_rng(0)
+    pubs, encoders = {}, {}
+    for patch, link in PATCHES.items():
+        pubs[patch] = node.create_publisher(PointCloud2, f"skin/{patch}/taxels", 100)
+        encoders[patch] = TaxelCloudEncoder(*cylinder_patch(taxels), link)
+    forces = pressed_forces(taxels, 0.1, rng)
+    deadline = time.monotonic() + 20.0
+    while any(p.get_subscription_count() == 0 for p in pubs.values()):
+        rclpy.spin_once(node, timeout_sec=0.05)
+        if time.monotonic() > deadline:
+            raise SystemExit("contact_estimation_node did not come up within 20 s")
+    ready.set()
+    time.sleep(1.0)
+    frames = int(seconds * rate)
+    start = next_t = time.monotonic()
+    for _ in range(frames):
+        for patch in PATCHES:
+            pubs[patch].publish(encoders[patch].encode(forces, time.time_ns()))
+        next_t += 1.0 / rate
+        delay = next_t - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+    done.put((frames, time.monotonic() - start))
+    node.destroy_node()
+    rclpy.try_shutdown()
 
 
 def main() -> None:
@@ -59,49 +91,43 @@ def main() -> None:
         node.create_subscription(
             PointCloud2, f"contacts/{link}", lambda m, lk=link: on_state(lk, m), 100
         )
-    rng = np.random.default_rng(0)
-    pubs, encoders = {}, {}
-    for patch, link in PATCHES.items():
-        pubs[patch] = node.create_publisher(PointCloud2, f"skin/{patch}/taxels", 100)
-        encoders[patch] = TaxelCloudEncoder(*cylinder_patch(args.taxels), link)
-    forces = pressed_forces(args.taxels, 0.1, rng)
+    ctx = multiprocessing.get_context("spawn")
+    ready, done = ctx.Event(), ctx.Queue()
+    publisher = ctx.Process(
+        target=publish, args=(args.seconds, args.taxels, args.rate, ready, done)
+    )
+    publisher.start()
     executor = SingleThreadedExecutor()
     executor.add_node(node)
-    deadline = time.monotonic() + 15.0
-    while any(p.get_subscription_count() == 0 for p in pubs.values()):
+    while not ready.is_set():
         executor.spin_once(timeout_sec=0.05)
-        if time.monotonic() > deadline:
-            raise SystemExit("contact_estimation_node did not come up within 15 s")
-    spinner = threading.Thread(target=executor.spin, daemon=True)
-    spinner.start()
-    time.sleep(1.0)
     for values in latencies.values():
         values.clear()
-    period = 1.0 / args.rate
-    frames = int(args.seconds * args.rate)
     cpu0, wall0 = cpu_seconds(node_proc.pid), time.monotonic()
-    next_t = time.monotonic()
-    print(f"publishing {frames} frames × 3 patches × {args.taxels} taxels at {args.rate:g} Hz …")
-    for _ in range(frames):
-        for patch in PATCHES:
-            pubs[patch].publish(encoders[patch].encode(forces, time.time_ns()))
-        next_t += period
-        delay = next_t - time.monotonic()
-        if delay > 0:
-            time.sleep(delay)
-    time.sleep(0.5)
+    print(f"publishing {args.seconds:g} s × 3 patches × {args.taxels} taxels at {args.rate:g} Hz …")
+    result = None
+    while result is None:
+        executor.spin_once(timeout_sec=0.01)
+        if not done.empty():
+            result = done.get()
+    end = time.monotonic() + 0.5
+    while time.monotonic() < end:
+        executor.spin_once(timeout_sec=0.01)
+    frames, publish_seconds = result
     cpu1, wall1 = cpu_seconds(node_proc.pid), time.monotonic()
+    publisher.join(timeout=10)
     node_proc.terminate()
     node_proc.wait(timeout=10)
     executor.shutdown()
     node.destroy_node()
     rclpy.try_shutdown()
-
+    print(f"published {frames} frames per patch in {publish_seconds:.1f} s "
+          f"({frames / publish_seconds:.0f} Hz)")
     print(f"{'link':<22}{'received':>10}{'rate Hz':>10}{'drops':>8}{'lat med ms':>12}"
           f"{'lat p99 ms':>12}")
     for link, values in latencies.items():
         lat = np.array(values) / 1e6
-        print(f"{link:<22}{len(values):>10}{len(values) / args.seconds:>10.1f}"
+        print(f"{link:<22}{len(values):>10}{len(values) / publish_seconds:>10.1f}"
               f"{max(0, frames - len(values)):>8}{np.median(lat):>12.2f}"
               f"{np.percentile(lat, 99):>12.2f}")
     print(f"node CPU: {100 * (cpu1 - cpu0) / (wall1 - wall0):.0f} % of one core")
