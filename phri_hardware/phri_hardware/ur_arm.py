@@ -32,25 +32,15 @@ from dataclasses import dataclass, field
 from enum import Enum, IntEnum
 from typing import Protocol
 
-UR_JOINTS: tuple[str, ...] = (
-    "shoulder_pan_joint",
-    "shoulder_lift_joint",
-    "elbow_joint",
-    "wrist_1_joint",
-    "wrist_2_joint",
-    "wrist_3_joint",
+from phri_description.description import (
+    UR16E_VELOCITY_LIMITS as _DESCRIPTION_UR16E_VELOCITY_LIMITS,
 )
-"""UR joint order of commands, RTDE vectors and joint states (ur_robot_driver's order)."""
+from phri_description.description import UR_JOINTS as _DESCRIPTION_UR_JOINTS
 
-UR16E_VELOCITY_LIMITS: tuple[float, ...] = (
-    math.radians(120.0),
-    math.radians(120.0),
-    math.radians(180.0),
-    math.radians(180.0),
-    math.radians(180.0),
-    math.radians(180.0),
-)
-"""UR16e joint speed limits [rad/s] (design §5: 120°/s shoulder pan and lift, 180°/s others)."""
+# The UR joint order and UR16e speed limits come from the one robot description (ur_robot_driver's
+# joint order; design §5: 120°/s shoulder pan and lift, 180°/s the others).
+UR_JOINTS = _DESCRIPTION_UR_JOINTS
+UR16E_VELOCITY_LIMITS = _DESCRIPTION_UR16E_VELOCITY_LIMITS
 
 
 class RobotMode(IntEnum):
