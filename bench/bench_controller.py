@@ -185,11 +185,12 @@ def controller_cases(repeats: int) -> dict[str, Case]:
     builder = ctl._builder
 
     def build(_k: int) -> None:
-        np.matmul(ctl._raw_jacobian, ctl._base_rotation, out=builder.jacobian)
-        builder.build(Q_HOME, target, weights)
+        jacobian = np.dot(ctl._raw_jacobian, ctl._base_rotation)
+        builder.build(Q_HOME, target, weights, jacobian)
 
     cases["    QP build (22)-(23)"] = build
-    problem = builder.build(Q_HOME, target, weights)
+    problem = builder.build(Q_HOME, target, weights,
+                            np.dot(ctl._raw_jacobian, ctl._base_rotation))
     for name in ("daqp", "osqp"):
         solver = make_solver(name)
 

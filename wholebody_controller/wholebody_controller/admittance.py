@@ -102,11 +102,20 @@ class Admittance:
         """:meth:`step` with the wrench as 6 floats."""
         x, v = self._x, self._v
         if self._axes is not None:
-            pxx, pxv, gx, pvx, pvv, gv = self._axes
-            self._x = [a * xk + b * vk + c * wk
-                       for a, b, c, xk, vk, wk in zip(pxx, pxv, gx, x, v, wrench, strict=True)]
-            self._v = [a * xk + b * vk + c * wk
-                       for a, b, c, xk, vk, wk in zip(pvx, pvv, gv, x, v, wrench, strict=True)]
+            # Unrolled per axis k: x̃_k ← Φ_xx x̃_k + Φ_xv ẋ̃_k + Γ_x w_k, ẋ̃_k likewise.
+            x0, x1, x2, x3, x4, x5 = x
+            v0, v1, v2, v3, v4, v5 = v
+            w0, w1, w2, w3, w4, w5 = wrench
+            (
+                (a0, a1, a2, a3, a4, a5), (b0, b1, b2, b3, b4, b5), (c0, c1, c2, c3, c4, c5),
+                (d0, d1, d2, d3, d4, d5), (e0, e1, e2, e3, e4, e5), (f0, f1, f2, f3, f4, f5),
+            ) = self._axes
+            self._x = [a0 * x0 + b0 * v0 + c0 * w0, a1 * x1 + b1 * v1 + c1 * w1,
+                       a2 * x2 + b2 * v2 + c2 * w2, a3 * x3 + b3 * v3 + c3 * w3,
+                       a4 * x4 + b4 * v4 + c4 * w4, a5 * x5 + b5 * v5 + c5 * w5]
+            self._v = [d0 * x0 + e0 * v0 + f0 * w0, d1 * x1 + e1 * v1 + f1 * w1,
+                       d2 * x2 + e2 * v2 + f2 * w2, d3 * x3 + e3 * v3 + f3 * w3,
+                       d4 * x4 + e4 * v4 + f4 * w4, d5 * x5 + e5 * v5 + f5 * w5]
             return
         state = self._phi @ np.array(x + v) + self._gamma @ np.asarray(wrench, dtype=np.float64)
         values = state.tolist()

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import enum
 import math
-from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,11 +21,11 @@ from numpy.typing import NDArray
 from phri_common.contact import ContactState
 from wholebody_controller.admittance import Admittance
 from wholebody_controller.config import LinkTaskConfig, diag6
-from wholebody_controller.so3 import Mat9, exp_and_left_jacobian_f, log_of_product_transpose_f
+from wholebody_controller.so3 import Mat9, log_of_product_transpose_f
 
 Array = NDArray[np.float64]
 
-#: Layout of the 36 floats :meth:`ContactTask.advance` returns (slices into the list).
+#: Layout of the 36 floats of :attr:`TaskOutput.values` (slices into the list).
 TARGET, CONTROL, WRENCH = slice(0, 6), slice(6, 12), slice(12, 18)
 DEFLECTION, DEFLECTION_VELOCITY = slice(18, 24), slice(24, 30)
 POINT, TRACK_FORCE = slice(30, 33), slice(33, 36)
@@ -52,6 +51,13 @@ class Phase(enum.IntEnum):
     """ψ ≥ ψ_thr while in contact (or with a locked priority)."""
     DEACTIVATING = 3
     """ψ ≥ ψ_thr after contact is lost: the admittance decays through its damping."""
+
+
+# Phase members as module constants: the hot path skips the enum class attribute lookup.
+_INACTIVE, _ACTIVATING, _ACTIVE, _DEACTIVATING = (
+    Phase.INACTIVE, Phase.ACTIVATING, Phase.ACTIVE, Phase.DEACTIVATING
+)
+_new_object = object.__new__
 
 
 def relu(x: Array) -> Array:
@@ -133,9 +139,10 @@ class TaskOutput:
     @classmethod
     def from_values(cls, link: str, phase: Phase, psi: float, psi_raw: float, in_contact: bool,
                     values: list[float]) -> TaskOutput:
-        """From :meth:`ContactTask.advance`'s 36 floats (not copied: the caller hands them over)."""
-        out = cls.__new__(cls)
-        out._set(link, phase, psi, psi_raw, in_contact, values)
+        """From the 36 floats of a step (not copied: the caller hands them over)."""
+        out = _new_object(cls)
+        out._link, out._phase, out._psi, out._psi_raw = link, phase, psi, psi_raw
+        out._in_contact, out._values = in_contact, values
         return out
 
     @property
@@ -182,22 +189,6 @@ class TaskOutput:
                 f"in_contact={self._in_contact!r}, target={self._values[TARGET]!r})")
 
 
-class Advance(NamedTuple):
-    """One step of a task in plain floats (:meth:`ContactTask.advance`)."""
-
-    phase: Phase
-    psi_raw: float
-    in_contact: bool
-    values: list[float]
-    """36 floats: see the slices ``TARGET`` … ``TRACK_FORCE`` of this module."""
-
-
-def task_output(link: str, step: Advance, psi_thr: float) -> TaskOutput:
-    """The :class:`TaskOutput` of one :meth:`ContactTask.advance` result."""
-    return TaskOutput.from_values(link, step.phase, max(step.psi_raw, psi_thr), step.psi_raw,
-                                  step.in_contact, step.values)
-
-
 class ContactTask:
     """State machine and control law of one contact centre (Algorithm 1, (10)–(20)).
 
@@ -222,6 +213,10 @@ class ContactTask:
         self.k_eta, self.b, self.k_p = k_eta, b, k_p
         self.psi_thr, self.region_margin, self.dt = psi_thr, region_margin, dt
         self._has_desired_force = any(f != 0.0 for f in config.desired_force)
+        # Copies of config fields read every step (the config never changes for a task).
+        self._link = config.link
+        self._desired_force = tuple(float(f) for f in config.desired_force)
+        self._priority_lock = config.priority_lock
         gains = config.admittance
         self.admittance = Admittance(
             diag6(gains.inertia), diag6(gains.damping), diag6(gains.stiffness), dt
@@ -282,13 +277,17 @@ class ContactTask:
             base_yaw: base heading [rad] (turns the base-frame desired force into the world).
         """
         r = np.asarray(rot, dtype=np.float64).ravel().tolist()
-        step = self.advance(contact, r, floats3(pos), math.cos(base_yaw), math.sin(base_yaw))
-        return task_output(self.config.link, step, self.psi_thr)
+        out = self.advance(contact, r, floats3(pos), math.cos(base_yaw), math.sin(base_yaw))
+        out._psi = max(out._psi_raw, self.psi_thr)  # as before: a NaN ψ stays NaN here
+        return out
 
     def advance(
         self, contact: ContactState, rot: Mat9, pos: list[float], cos_yaw: float, sin_yaw: float
-    ) -> Advance:
+    ) -> TaskOutput:
         """:meth:`update` on plain floats (the controller's hot path).
+
+        Returns the step's :class:`TaskOutput`, with ψ floored at ψ_thr (a NaN ψ gives ψ_thr,
+        the weight the controller uses; :meth:`update` keeps NaN visible).
 
         Args:
             contact: the link's latest contact state (link frame).
@@ -307,7 +306,10 @@ class ContactTask:
             center = v.tolist() if type(v) is np.ndarray else floats3(v)
             if self._had_contact:
                 inv_dt = 1.0 / self.dt
-                rate = [(c - p) * inv_dt for c, p in zip(center, self._point, strict=True)]
+                new_x, new_y, new_z = center
+                old_x, old_y, old_z = self._point
+                rate = [(new_x - old_x) * inv_dt, (new_y - old_y) * inv_dt,
+                        (new_z - old_z) * inv_dt]
             self._point = center
             self.point_array = np.asarray(contact.center, dtype=np.float64)
         elif self._had_contact:
@@ -351,7 +353,7 @@ class ContactTask:
             tz = r6 * cx + r7 * cy + r8 * cz
         if self._has_desired_force:
             # Manual desired force, base frame → world.
-            dfx, dfy, dfz = self.config.desired_force
+            dfx, dfy, dfz = self._desired_force
             wx += cos_yaw * dfx - sin_yaw * dfy
             wy += sin_yaw * dfx + cos_yaw * dfy
             wz += dfz
@@ -360,7 +362,7 @@ class ContactTask:
         # Admittance (13) and priority (15).
         adm = self.admittance
         adm.step_f(wrench)
-        lock = self.config.priority_lock
+        lock = self._priority_lock
         if lock is not None:
             psi_raw = lock
         else:
@@ -395,17 +397,35 @@ class ContactTask:
 
         if active:
             assert ref_rot is not None and ref_pos is not None
-            phase = Phase.ACTIVATING if activating else (
-                Phase.ACTIVE if in_contact or lock is not None else Phase.DEACTIVATING
+            phase = _ACTIVATING if activating else (
+                _ACTIVE if in_contact or lock is not None else _DEACTIVATING
             )
             k_p = self.k_p
             dx, dy, dz, drx, dry, drz = deflection
             vx, vy, vz, vrx, vry, vrz = deflection_velocity
             # Desired pose of γ_i: x_d = x_r ⊕ x̃ (14), rotation as a world-frame rotation vector;
             # ω_d = J_l(x̃_ω) ẋ̃_ω is the angular velocity of R_d.
-            (e0, e1, e2, e3, e4, e5, e6, e7, e8), (j0, j1, j2, j3, j4, j5, j6, j7, j8) = (
-                exp_and_left_jacobian_f(drx, dry, drz)
-            )
+            # exp_and_left_jacobian_f inlined (hot path; test_equivalence covers it): both are
+            # I + α[φ]× + β[φ]×², [φ]×² = φφᵀ − θ²I. At θ = 0 the small-angle coefficients give
+            # exactly I, as the function's own θ = 0 branch does.
+            xx, yy, zz = drx * drx, dry * dry, drz * drz
+            theta2 = xx + yy + zz
+            if theta2 < 1e-10:
+                a, b, aj, bj = 1.0, 0.5, 0.5, 1.0 / 6.0
+            else:
+                theta = math.sqrt(theta2)
+                sin_t = math.sin(theta)
+                a = sin_t / theta
+                b = aj = (1.0 - math.cos(theta)) / theta2
+                bj = (theta - sin_t) / (theta2 * theta)
+            xy, xz, yz = drx * dry, drx * drz, dry * drz
+            s0, s1, s2 = -(zz + yy), -(zz + xx), -(yy + xx)  # diagonal of [φ]×²
+            e0, e1, e2 = 1.0 + b * s0, -a * drz + b * xy, a * dry + b * xz
+            e3, e4, e5 = a * drz + b * xy, 1.0 + b * s1, -a * drx + b * yz
+            e6, e7, e8 = -a * dry + b * xz, a * drx + b * yz, 1.0 + b * s2
+            j0, j1, j2 = 1.0 + bj * s0, -aj * drz + bj * xy, aj * dry + bj * xz
+            j3, j4, j5 = aj * drz + bj * xy, 1.0 + bj * s1, -aj * drx + bj * yz
+            j6, j7, j8 = -aj * dry + bj * xz, aj * drx + bj * yz, 1.0 + bj * s2
             f0, f1, f2, f3, f4, f5, f6, f7, f8 = ref_rot
             d0 = e0 * f0 + e1 * f3 + e2 * f6
             d1 = e0 * f1 + e1 * f4 + e2 * f7
@@ -432,8 +452,26 @@ class ContactTask:
             lin_x = k_p * ((((gx + dx) - ex) + qx) - sx) + vx + (oy * qz - oz * qy)
             lin_y = k_p * ((((gy + dy) - ey) + qy) - sy) + vy + (oz * qx - ox * qz)
             lin_z = k_p * ((((gz + dz) - ez) + qz) - sz) + vz + (ox * qy - oy * qx)
-            rd = (d0, d1, d2, d3, d4, d5, d6, d7, d8)
-            lx, ly, lz = log_of_product_transpose_f(rd, rot)
+            # log(R_d ⁰R_iᵀ)^∨: log_of_product_transpose_f inlined but for its branch near π.
+            tr = ((d0 * r0 + d1 * r1 + d2 * r2) + (d3 * r3 + d4 * r4 + d5 * r5)) + (
+                d6 * r6 + d7 * r7 + d8 * r8
+            )
+            cos_t = 0.5 * (tr - 1.0)
+            cos_t = cos_t if cos_t > -1.0 else -1.0  # = min(1, max(−1, ·)), NaN included
+            cos_t = cos_t if cos_t < 1.0 else 1.0
+            theta = math.acos(cos_t)
+            if theta < 1e-6:
+                k_log = 0.5 * (1.0 + theta * theta / 6.0)
+            elif math.pi - theta > 1e-4:
+                k_log = theta / (2.0 * math.sin(theta))
+            else:
+                k_log = 0.0
+            if k_log != 0.0:
+                lx = k_log * ((d6 * r3 + d7 * r4 + d8 * r5) - (d3 * r6 + d4 * r7 + d5 * r8))
+                ly = k_log * ((d0 * r6 + d1 * r7 + d2 * r8) - (d6 * r0 + d7 * r1 + d8 * r2))
+                lz = k_log * ((d3 * r0 + d4 * r1 + d5 * r2) - (d0 * r3 + d1 * r4 + d2 * r5))
+            else:
+                lx, ly, lz = log_of_product_transpose_f((d0, d1, d2, d3, d4, d5, d6, d7, d8), rot)
             ang = [k_p * lx + ox, k_p * ly + oy, k_p * lz + oz]
             if rate is not None:
                 ax, ay, az = rate
@@ -451,11 +489,16 @@ class ContactTask:
                 values = [lin_x, lin_y, lin_z, *ang, lin_x, lin_y, lin_z, *ang]
         else:
             # Inactive: the task only holds the link (x_d = x_γ), whatever slides on it.
-            phase = Phase.INACTIVE
+            phase = _INACTIVE
             values = [0.0] * 12
         k = self.k_eta
         values += wrench
         values += deflection
         values += deflection_velocity
         values += (px, py, pz, k * mux, k * muy, k * muz)
-        return Advance(phase, psi_raw, in_contact, values)
+        # TaskOutput.from_values inlined: one object per link and step in the hot path.
+        out = _new_object(TaskOutput)
+        out._link, out._phase, out._psi_raw = self._link, phase, psi_raw
+        out._psi = psi_raw if psi_raw > thr else thr
+        out._in_contact, out._values = in_contact, values
+        return out

@@ -13,12 +13,14 @@ That rotation preserves ‖u‖, so ε‖u‖² equals ε‖q̇‖² of (23). Ba
 boxes in u; they must be infinite (as on the real robot) — yaw limits are allowed.
 
 Speed (design §7: the step must fit well inside 2 ms, beside contact estimation). At this size a
-numpy call costs as much as dozens of float operations, so the step makes few of them: the tasks
-run on plain floats (:meth:`ContactTask.advance`), their outputs stay floats until read
-(:class:`TaskOutput`), targets and weights of all tasks become one array, the Jacobians are
-written in place into one stacked buffer (``point_jacobian(..., out=)`` when the kinematics
-offers it), the base-frame rotation is one product with a 15×15 matrix, and
-:class:`~wholebody_controller.qp.QPBuilder` forms H and g with two products.
+numpy call costs as much as dozens of float operations, so the step makes few of them: q is
+validated once here (as floats), the tasks run on plain floats and return their
+:class:`TaskOutput` directly (:meth:`ContactTask.advance`), targets and weights of all tasks
+become one array, the Jacobians are written in place into one stacked buffer
+(``point_jacobian(..., out=)`` when the kinematics offers it), the base-frame rotation is one
+product with a 15×15 matrix, :class:`~wholebody_controller.qp.QPBuilder` forms H and g with two
+products on ``2ΨJ``, q̇ comes from the command's floats, and the tracking errors (21) are
+only computed when read (:attr:`StepResult.tracking_errors`).
 ``test/wbc_reference.py`` is the straightforward version the tests compare against (1e-9).
 """
 
@@ -27,7 +29,8 @@ from __future__ import annotations
 import inspect
 import math
 from collections.abc import Mapping, Sequence
-from typing import NamedTuple, Protocol
+from math import cos, isfinite, sin
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -74,22 +77,36 @@ class KinematicsModel(Protocol):
         ...
 
 
-class StepResult(NamedTuple):
-    """One control cycle's outcome (immutable).
+class StepResult:
+    """One control cycle's outcome (read-only by convention).
 
     Attributes:
         command: u = [v_x, v_y, ω_z (base frame), arm joint velocities] [m/s, rad/s].
         qdot: the same motion as rates of q = [x, y, yaw, arms] (world frame) [m/s, rad/s].
         tasks: per-link task outputs (ψ, phase, deflection, track force …), config order.
-        tracking_errors: (21) at the solution, ``b_i − J_i u`` per link [m/s, rad/s].
+        tracking_errors: (21) at the solution, ``b_i − J_i u`` per link [m/s, rad/s]; computed
+            on first access (the node reads it only when a task state is subscribed).
         problem: the QP that was solved.
     """
 
-    command: Array
-    qdot: Array
-    tasks: tuple[TaskOutput, ...]
-    tracking_errors: tuple[Array, ...]
-    problem: QPProblem
+    __slots__ = ("_errors", "_jacobian", "_target", "command", "problem", "qdot", "tasks")
+
+    def __init__(self, command: Array, qdot: Array, tasks: tuple[TaskOutput, ...],
+                 problem: QPProblem, target: Array, jacobian: Array) -> None:
+        """``target`` (stacked b_i) and ``jacobian`` (stacked J_i in u) are kept, not copied."""
+        self.command, self.qdot, self.tasks, self.problem = command, qdot, tasks, problem
+        self._target, self._jacobian = target, jacobian
+        self._errors: tuple[Array, ...] | None = None
+
+    @property
+    def tracking_errors(self) -> tuple[Array, ...]:
+        if self._errors is None:
+            residual = self._target - self._jacobian @ self.command
+            self._errors = tuple(residual.reshape(-1, 6))
+        return self._errors
+
+    def __repr__(self) -> str:
+        return f"StepResult(command={self.command!r}, tasks={self.tasks!r})"
 
 
 def base_command_to_rates(command: Array, yaw: float) -> Array:
@@ -117,6 +134,7 @@ class WholeBodyController:
             raise ValueError(f"kinematics must start with {BASE_JOINTS}, got {names[:3]}")
         self.joint_names: tuple[str, ...] = tuple(names)
         self.n = len(names)
+        self._q_shape = (self.n,)
         limits = np.asarray(kinematics.position_limits, dtype=np.float64)
         if np.any(np.isfinite(limits[0:2])):
             raise ValueError("base x/y position limits must be infinite (see module docstring)")
@@ -174,12 +192,17 @@ class WholeBodyController:
         elif getattr(self, "solver", None) is None or self.solver.name != config.solver:
             self.solver = make_solver(config.solver)
         rows = 6 * len(tasks)
+        self._rows = rows
         builder = QPBuilder(rows, self.n)
         builder.set_limits(lower, upper, -vmax, vmax, config.horizon, config.epsilon)
         self._builder = builder
         # Jacobian blocks as views (kinematics write into them) and the raw-to-u column map.
         self._raw_jacobian = np.zeros((rows, self.n))
         self._jacobian_blocks = [self._raw_jacobian[6 * i : 6 * i + 6] for i in range(len(tasks))]
+        self._task_blocks = [
+            (task, task.config.link, block)
+            for task, block in zip(tasks, self._jacobian_blocks, strict=True)
+        ]
         self._base_rotation = np.eye(self.n)
         self.position_lower, self.position_upper = lower, upper
         self.velocity_upper = vmax
@@ -204,58 +227,55 @@ class WholeBodyController:
             QPError: the QP failed.
         """
         q = np.asarray(q, dtype=np.float64)
-        # q·q is finite for every finite q short of overflow; the exact test only runs otherwise.
-        if q.shape != (self.n,) or (
-            not math.isfinite(float(q @ q)) and not bool(np.all(np.isfinite(q)))
-        ):
+        if q.shape != self._q_shape:
+            raise ValueError(f"configuration must be {self.n} finite numbers, got {q}")
+        q_floats = q.tolist()
+        # The sum is finite for every finite q short of overflow; the exact test runs only if not.
+        if not isfinite(sum(q_floats)) and not all(map(isfinite, q_floats)):
             raise ValueError(f"configuration must be {self.n} finite numbers, got {q}")
         kin = self.kinematics
         kin.update(q)
-        yaw = float(q[2])
-        c, s = math.cos(yaw), math.sin(yaw)
-        thr = self.config.psi_thr
-        jacobian_out = self._jacobian_out
+        yaw = q_floats[2]
+        c, s = cos(yaw), sin(yaw)
+        link_pose = kin.link_pose
+        point_jacobian = kin.point_jacobian
         targets: list[float] = []
         weights: list[float] = []
         outputs = []
-        for task, block in zip(self.tasks, self._jacobian_blocks, strict=True):
-            link = task.config.link
-            contact = contacts.get(link)
+        get = contacts.get
+        jacobian_out = self._jacobian_out
+        for task, link, block in self._task_blocks:
+            contact = get(link)
             if contact is None:
                 contact = task.no_contact
-            rot, pos = kin.link_pose(link)
-            step = task.advance(contact, rot.ravel().tolist(), pos.tolist(), c, s)
-            psi = step.psi_raw if step.psi_raw > thr else thr
-            outputs.append(TaskOutput.from_values(link, step.phase, psi, step.psi_raw,
-                                                  step.in_contact, step.values))
-            targets += step.values[TARGET]
-            weights += [2.0 * psi] * 6
+            rot, pos = link_pose(link)
+            out = task.advance(contact, rot.ravel().tolist(), pos.tolist(), c, s)
+            outputs.append(out)
+            targets += out._values[TARGET]
+            psi2 = 2.0 * out._psi
+            weights += (psi2, psi2, psi2, psi2, psi2, psi2)
             if jacobian_out:
-                kin.point_jacobian(link, task.point_array, out=block)  # type: ignore[call-arg]
+                point_jacobian(link, task.point_array, out=block)  # type: ignore[call-arg]
             else:
-                block[...] = kin.point_jacobian(link, task.point_array)
-        count = len(outputs)
-        data = np.array(targets + weights).reshape(2, 6 * count)
-        target = data[0]
-        doubled_weights = data[1].reshape(-1, 1)
+                block[...] = point_jacobian(link, task.point_array)
+        rows = self._rows
+        targets += weights
+        data = np.array(targets)
+        target = data[:rows]
         # World base rates → base-frame twist (module docstring): J_u = J_q · blockdiag(R(yaw), I).
         rotation = self._base_rotation
         rotation[0, 0] = c
         rotation[0, 1] = -s
         rotation[1, 0] = s
         rotation[1, 1] = c
-        builder = self._builder
-        jacobian = builder.jacobian
-        np.matmul(self._raw_jacobian, rotation, out=jacobian)
-        problem = builder.build(q, target, doubled_weights)
+        # Fresh (the result keeps it for its residual); np.dot: less call overhead than @.
+        jacobian = np.dot(self._raw_jacobian, rotation)
+        problem = self._builder.build(q, target, data[rows:, None], jacobian)
         command = self.solver.solve(problem)
-        if not math.isfinite(float(command.sum())):
+        u = command.tolist()
+        if not isfinite(sum(u)):
             raise QPError("non-finite command")
-        residual = target - jacobian @ command
-        return StepResult(
-            command=command,
-            qdot=base_command_to_rates(command, yaw),
-            tasks=tuple(outputs),
-            tracking_errors=tuple(residual.reshape(count, 6)),
-            problem=problem,
-        )
+        vx, vy = u[0], u[1]
+        u[0] = c * vx - s * vy
+        u[1] = s * vx + c * vy
+        return StepResult(command, np.array(u), tuple(outputs), problem, target, jacobian)

@@ -259,9 +259,11 @@ class WholeBodyControllerNode(Node):
         self.left_pub.publish(arm_command(command[3:9], self.left_joints))
         self.right_pub.publish(arm_command(command[9:15], self.right_joints))
         frame = str(self.params["world_frame"])
-        for task, error in zip(result.tasks, result.tracking_errors, strict=True):
+        for i, task in enumerate(result.tasks):
             pub = self.state_pubs[task.link]
             if pub.get_subscription_count() > 0:  # debugging output: skip when nobody listens
+                # tracking_errors is computed on first access: only when someone listens.
+                error = result.tracking_errors[i]
                 pub.publish(task_state_to_msg(task, error, now_ns, frame))
         self.good_cycles += 1
 

@@ -19,14 +19,19 @@ printing "Polishing not needed"). Both clip the answer into the bounds.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
+from math import isfinite
 from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 Array = NDArray[np.float64]
+
+
+_dot = np.dot
+# QPProblem(...) without the Python-level __new__ of a NamedTuple (hot path).
+_new_tuple = tuple.__new__
 
 
 class QPError(RuntimeError):
@@ -158,26 +163,32 @@ class QPBuilder:
         self._horizon = float(horizon)
         self._eps_eye[...] = np.diag(np.full(self.n, 2.0 * epsilon))
 
-    def build(self, q: Array, target: Array, doubled_weights: Array) -> QPProblem:
-        """(23) at configuration q with the current :attr:`jacobian`.
+    def build(
+        self, q: Array, target: Array, doubled_weights: Array, jacobian: Array | None = None
+    ) -> QPProblem:
+        """(23) at configuration q.
 
         Args:
             q: positions (n) [rad] / [m].
             target: stacked b_i (rows) [m/s, rad/s].
             doubled_weights: 2ψ_i for each row, shape (rows, 1) (the 2 of ``H = 2(…)``
                 folded in, which saves a pass over H).
+            jacobian: stacked task Jacobians (rows×n); default :attr:`jacobian`.
 
         Raises:
             QPError: non-finite data.
         """
-        jac, weighted = self.jacobian, self._weighted
-        np.multiply(jac, doubled_weights, out=weighted)  # 2Ψ J
-        hessian = jac.T @ weighted
+        jac = self.jacobian if jacobian is None else jacobian
+        weighted = np.multiply(jac, doubled_weights, out=self._weighted)  # 2Ψ J
+        # np.dot: the same products with less call overhead than @ at this size.
+        hessian = _dot(jac.T, weighted)
+        gradient = target.dot(weighted)
         hessian += self._eps_eye
-        gradient = target @ weighted
         np.negative(gradient, out=gradient)
-        # One scalar per array catches NaN/inf anywhere in the data.
-        if not math.isfinite(float(np.add.reduce(hessian, None)) + float(np.add.reduce(gradient))):
+        # NaN/inf anywhere in J, Ψ or b reaches g (0·inf = NaN included) and the diagonal of H;
+        # an off-diagonal |H_ij| ≤ √(H_ii H_jj) cannot overflow while the diagonal does not. Sums
+        # of Python floats: cheaper than two numpy reductions at this size.
+        if not isfinite(sum(hessian.diagonal().tolist()) + sum(gradient.tolist())):
             raise QPError("QP data is not finite")
         # (22): clip((q_l − q)/h, q̇_l, q̇_u) ≤ u ≤ clip((q_u − q)/h, q̇_l, q̇_u). The limits are
         # ordered (set_limits) and monotone maps keep the order, so lower ≤ upper always.
@@ -185,7 +196,8 @@ class QPBuilder:
         np.divide(bounds, self._horizon, out=bounds)
         np.maximum(bounds, self._velocity_lower, out=bounds)
         np.minimum(bounds, self._velocity_upper, out=bounds)
-        return QPProblem(hessian, gradient, bounds[0], bounds[1])
+        lower, upper = bounds
+        return _new_tuple(QPProblem, (hessian, gradient, lower, upper))
 
 
 def kkt_residual(problem: QPProblem, u: Array) -> float:
@@ -217,8 +229,8 @@ def _finish(problem: QPProblem, u: Array | None, name: str) -> Array:
     if u is None:
         raise QPError(f"{name} returned no solution")
     x = np.asarray(u, dtype=np.float64)
-    # One reduction catches NaN/inf (a sum of finite values near the bounds cannot overflow).
-    if not math.isfinite(float(np.add.reduce(x))):
+    # One sum catches NaN/inf (a sum of finite values near the bounds cannot overflow).
+    if not isfinite(sum(x.tolist())):
         raise QPError(f"{name} returned a non-finite solution")
     # Clip into the bounds: two ufunc calls instead of np.clip's Python wrapper.
     out = np.maximum(x, problem.lower)
@@ -238,7 +250,7 @@ class DaqpSolver:
         self._sense: NDArray[np.int32] | None = None
 
     def solve(self, problem: QPProblem) -> Array:
-        n = problem.size
+        n = problem.gradient.shape[0]
         if self._empty is None or self._empty.shape[1] != n:
             self._empty = np.zeros((0, n))
             self._sense = np.zeros(n, dtype=np.int32)
