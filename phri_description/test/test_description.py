@@ -11,7 +11,13 @@ import pytest
 
 from phri_description.description import JOINT_NAMES, SKIN_LINKS, robot_description
 from phri_description.mujoco_model import build_model
-from phri_description.urdf_writer import URDF_PATH, urdf_string
+from phri_description.urdf_writer import (
+    PATCHES_PATH,
+    URDF_PATH,
+    load_patches_yaml,
+    patches_yaml,
+    urdf_string,
+)
 
 # design §5, written out again here so the test does not read the values it checks
 D = [0.1807, 0.0, 0.0, 0.17415, 0.11985, 0.11655]
@@ -23,6 +29,7 @@ UR_JOINTS = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_
              "wrist_2_joint", "wrist_3_joint"]
 UR_LINKS = ["shoulder_link", "upper_arm_link", "forearm_link", "wrist_1_link", "wrist_2_link",
             "wrist_3_link"]
+MASSES = [7.369, 10.450, 4.321, 2.180, 2.033, 0.907]
 
 
 def dh(theta: float, d: float, a: float, alpha: float) -> np.ndarray:
@@ -133,3 +140,76 @@ def test_mujoco_joint_ranges_are_radians() -> None:
 def test_skin_patches_are_on_the_three_skin_links() -> None:
     patches = robot_description().patches
     assert sorted(p.link for p in patches) == sorted(SKIN_LINKS)
+
+
+def test_checked_in_patch_yaml_is_the_generated_one_and_round_trips() -> None:
+    text = PATCHES_PATH.read_text(encoding="utf-8")
+    assert text == patches_yaml(), "stale: run `.venv/bin/python -m phri_description.urdf_writer`"
+    assert load_patches_yaml(text) == list(robot_description().patches)
+
+
+def test_patches_lie_on_their_links_collision_cylinders() -> None:
+    """Each patch's cylinder is one collision cylinder of its link in the URDF (same axis line,
+    same radius, axial range inside its length), so taxels sit on the collision surface."""
+    root = ET.parse(URDF_PATH).getroot()
+    links = {link.get("name"): link for link in root.iter("link")}
+    for p in robot_description().patches:
+        axis, point = np.array(p.axis), np.array(p.point)
+        matches = 0
+        for col in links[p.link].iter("collision"):
+            cyl = col.find("geometry/cylinder")
+            origin = col.find("origin")
+            if cyl is None or origin is None:
+                continue
+            rot = rpy_matrix(*[float(v) for v in origin.get("rpy", "0 0 0").split()])
+            centre = np.array([float(v) for v in origin.get("xyz", "0 0 0").split()])
+            c_axis = rot[:, 2]
+            off = point - centre
+            if (abs(abs(c_axis @ axis) - 1.0) > 1e-9
+                    or np.linalg.norm(off - (off @ c_axis) * c_axis) > 1e-9
+                    or abs(float(cyl.get("radius", "0")) - p.radius) > 1e-9):
+                continue
+            half = float(cyl.get("length", "0")) / 2.0
+            for s_ in p.axial_range:
+                assert abs((point + s_ * axis - centre) @ c_axis) <= half + 1e-9, p.name
+            matches += 1
+        assert matches == 1, p.name
+        rng = np.random.default_rng(2)
+        for _ in range(20):
+            s_, phi = rng.uniform(*p.axial_range), rng.uniform(*p.angular_range)
+            n = p.normal(phi)
+            assert np.linalg.norm(n) == pytest.approx(1.0) and abs(n @ axis) < 1e-12
+            x = p.surface_point(s_, phi) - point
+            np.testing.assert_allclose(x - (x @ axis) * axis, p.radius * n, atol=1e-12)
+        np.testing.assert_allclose(p.normal(0.0), p.zero_direction, atol=1e-15)
+        np.testing.assert_allclose(p.normal(math.pi / 2), np.cross(axis, p.zero_direction),
+                                   atol=1e-15)
+        # about 2,000 taxels of 7.5 mm per patch (design §7: 3 × 2,000 taxels)
+        assert 1000 < p.area() / 0.0075**2 < 3000
+
+
+def test_urdf_and_mujoco_masses_match_design_and_inertias_are_physical() -> None:
+    root = ET.parse(URDF_PATH).getroot()
+    links = {link.get("name"): link for link in root.iter("link")}
+    model = build_model()
+    for side in ("left", "right"):
+        for link, mass in zip(UR_LINKS, MASSES, strict=True):
+            inertial = links[f"{side}_{link}"].find("inertial")
+            assert inertial is not None
+            assert float(inertial.find("mass").get("value", "0")) == pytest.approx(mass)  # type: ignore[union-attr]
+            g = {k: float(v) for k, v in inertial.find("inertia").attrib.items()}  # type: ignore[union-attr]
+            tensor = np.array([[g["ixx"], g["ixy"], g["ixz"]], [g["ixy"], g["iyy"], g["iyz"]],
+                               [g["ixz"], g["iyz"], g["izz"]]])
+            ev = np.linalg.eigvalsh(tensor)
+            assert ev[0] > 0 and ev[0] + ev[1] >= ev[2] * (1 - 1e-9)
+            assert model.body(f"{side}_{link}").mass[0] == pytest.approx(mass)
+
+
+def test_mujoco_model_steps_without_warnings() -> None:
+    model = build_model()
+    data = mujoco.MjData(model)
+    assert [model.joint(i).name for i in range(model.njnt)] == list(JOINT_NAMES)
+    for _ in range(200):
+        mujoco.mj_step(model, data)
+    assert int(data.warning.number.sum()) == 0
+    assert np.all(np.isfinite(data.qpos))
