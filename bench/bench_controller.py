@@ -219,13 +219,11 @@ def mink_cases() -> dict[str, Case]:
 
     kin = RobotKinematics()
     model = kin.model
-    # The compiled model's ranges must equal the description's limits for ConfigurationLimit.
-    # (phri_description's model currently reads them as degrees: ±0.11 rad; fix them here.)
-    limits_rad = np.asarray(kin.position_limits)
+    # mink's ConfigurationLimit reads jnt_range: it must hold the description's limits [rad].
+    ranges = np.asarray(kin.position_limits)
     for i, name in enumerate(kin.joint_names):
-        jid = model.joint(name).id
-        if np.all(np.isfinite(limits_rad[i])):
-            model.jnt_range[jid] = limits_rad[i]
+        if np.all(np.isfinite(ranges[i])):
+            assert np.allclose(model.jnt_range[model.joint(name).id], ranges[i]), name
     cases: dict[str, Case] = {}
     for solver in ("daqp", "osqp"):
         configuration = mink.Configuration(model)

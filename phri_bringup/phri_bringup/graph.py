@@ -245,35 +245,10 @@ shows the robot in Foxglove / Lichtblick without a robot state publisher."""
 
 
 def robot_description_urdf() -> str:
-    """The robot's URDF from phri_description (its URDF writer, or an installed
-    ``share/phri_description/urdf/*.urdf``), for robot_state_publisher and rviz.
+    """The robot's URDF (phri_description's one description), for robot_state_publisher/rviz."""
+    from phri_description.urdf_writer import urdf_string
 
-    Raises:
-        FileNotFoundError: phri_description provides no URDF yet.
-    """
-    import importlib
-
-    try:
-        module = importlib.import_module("phri_description.urdf_writer")
-    except ImportError:
-        module = None
-    if module is not None:
-        for fn in ("urdf_string", "to_urdf", "build_urdf", "urdf"):
-            writer = getattr(module, fn, None)
-            if callable(writer):
-                return str(writer())
-    roots = [Path(sys.prefix) / "share" / "phri_description" / "urdf"]
-    try:
-        import phri_description
-
-        roots.insert(0, Path(phri_description.__file__).resolve().parent.parent / "urdf")
-    except ImportError:
-        pass
-    for root in roots:
-        for path in sorted(root.glob("*.urdf")):
-            return path.read_text(encoding="utf-8")
-    raise FileNotFoundError("phri_description provides no URDF (phri_description.urdf or "
-                            "phri_description/urdf/*.urdf)")
+    return urdf_string()
 
 
 def launch_node_kwargs(spec: NodeSpec, urdf: str = "") -> dict[str, Any]:

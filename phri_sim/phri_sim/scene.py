@@ -169,9 +169,6 @@ def _add_part(spec: mujoco.MjSpec, part: BodyPartSpec) -> None:
 def robot_spec() -> mujoco.MjSpec:
     """The robot with its velocity servos (``robot.xml``)."""
     spec = build_spec()
-    # build_spec stores joint ranges in radians but leaves MuJoCo's default angle unit (degrees):
-    # compiled as is, ±2π rad would become ±6.28°. State the unit explicitly.
-    spec.compiler.degree = False
     spec.modelname = "phri_robot"
     spec.option.timestep = TIMESTEP
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
