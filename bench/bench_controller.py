@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from contact_estimation.estimator import ContactEstimator, EstimatorConfig
-from phri_common.contact import ContactState
+from phri_common.records import ContactState
 from wholebody_controller.config import SKIN_LINKS, ControllerConfig
 from wholebody_controller.controller import StepResult, WholeBodyController
 from wholebody_controller.kinematics import RobotKinematics

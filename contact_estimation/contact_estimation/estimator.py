@@ -38,8 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from phri_common.contact import ContactState
-from phri_common.taxels import TaxelArray
+from phri_common.records import ContactState, TaxelArray
 
 FloatArray = NDArray[np.floating]
 
@@ -334,6 +333,7 @@ class ContactEstimator:
         if rows:
             # One array for every contacting link; each state holds views of its own row.
             table = np.array(rows)
+            table.flags.writeable = False  # the states' vectors are read-only views of it
             for r, link, stamp, count in contacting_links:
                 row = table[r]
                 states[link] = ContactState(

@@ -19,7 +19,7 @@ from geometry_msgs.msg import Point, Vector3
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker
 
-from phri_common.contact import ContactState
+from phri_common.records import ContactState
 from phri_common.stamps import ns_to_stamp
 
 MARKER_IDS = {"center": 0, "force": 1, "torque": 2, "region": 3}

@@ -17,7 +17,7 @@ from contact_estimation.estimator import (
     UnknownPatchError,
     estimate_contact,
 )
-from phri_common.taxels import TaxelArray
+from phri_common.records import TaxelArray
 
 NO_LIMIT = EstimatorConfig(force_threshold=0.05, torque_limit=(math.inf, math.inf, math.inf))
 
@@ -158,10 +158,13 @@ def test_negative_forces_are_never_contact() -> None:
 
 
 def test_mismatched_sizes_are_refused() -> None:
+    # A TaxelArray cannot even hold mismatched sizes; the estimator refuses raw arrays too.
+    with pytest.raises(ValueError, match=r"positions must have shape \(5, 3\)"):
+        taxels(np.zeros((4, 3)), np.zeros((4, 3)), np.zeros(5))
+    with pytest.raises(ValueError, match=r"weights must have shape \(4,\)"):
+        taxels(np.zeros((4, 3)), np.zeros((4, 3)), np.zeros(4), np.ones(3))
     with pytest.raises(InvalidTaxelData, match="mismatched"):
-        estimate_contact("l", taxels(np.zeros((4, 3)), np.zeros((4, 3)), np.zeros(5)))
-    with pytest.raises(InvalidTaxelData, match="mismatched"):
-        estimate_contact("l", taxels(np.zeros((4, 3)), np.zeros((4, 3)), np.zeros(4), np.ones(3)))
+        ContactEstimator({"p": "l"}).set_geometry("p", np.zeros((4, 3)), np.zeros((5, 3)))
     est = ContactEstimator({"p": "l"})
     est.set_geometry("p", np.zeros((4, 3)), np.zeros((4, 3)))
     with pytest.raises(InvalidTaxelData, match="4 taxels"):

@@ -12,8 +12,9 @@ from sensor_msgs.msg import PointCloud2
 from visualization_msgs.msg import MarkerArray
 
 from contact_estimation.node import ContactEstimationNode
-from phri_common.contact import ContactState, msg_to_contact
+from phri_common.contact import msg_to_contact
 from phri_common.params import ParameterValueError
+from phri_common.records import ContactState
 from phri_common.taxels import TaxelCloudEncoder
 from phri_common.testing import spin_until
 

@@ -103,12 +103,19 @@ def cloud_records(msg: PointCloud2) -> NDArray[np.void]:
             f"data holds {len(msg.data)} bytes, header says {count} points × "
             f"{msg.point_step} bytes = {expected}"
         )
-    return np.frombuffer(msg.data, dtype=dtype, count=count)
+    records = np.frombuffer(msg.data, dtype=dtype, count=count)
+    records.flags.writeable = False  # a view of the message's buffer: never written through
+    return records
 
 
-def require_fields(msg: PointCloud2, required: Sequence[str], what: str) -> None:
-    """Raise :class:`CloudFormatError` naming every missing field."""
+def require_fields(
+    msg: PointCloud2,
+    required: Sequence[str],
+    what: str,
+    error: type[CloudFormatError] = CloudFormatError,
+) -> None:
+    """Raise ``error`` (a :class:`CloudFormatError`) naming every field ``msg`` lacks."""
     present = {f.name for f in msg.fields}
     missing = [name for name in required if name not in present]
     if missing:
-        raise CloudFormatError(f"{what} lacks field(s) {', '.join(missing)}")
+        raise error(f"{what} lacks field(s) {', '.join(missing)}")

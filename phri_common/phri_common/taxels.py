@@ -20,14 +20,18 @@ The force a taxel exerts on the link is ``-force * normal`` (the person pushes *
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
-from numpy.typing import NDArray
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Header
 
-from phri_common.cloud import CloudFormatError, cloud_records, point_fields, record_dtype
+from phri_common.cloud import (
+    CloudFormatError,
+    cloud_records,
+    point_fields,
+    record_dtype,
+    require_fields,
+)
+from phri_common.records import FloatArray, TaxelArray
 from phri_common.stamps import ns_to_stamp, stamp_to_ns
 
 TAXEL_FIELDS: tuple[str, ...] = ("x", "y", "z", "normal_x", "normal_y", "normal_z", "force")
@@ -36,51 +40,8 @@ WEIGHT_FIELD = "weight"
 _DTYPE = record_dtype([(name, "f4") for name in TAXEL_FIELDS])
 _DTYPE_WEIGHTED = record_dtype([(name, "f4") for name in (*TAXEL_FIELDS, WEIGHT_FIELD)])
 
-FloatArray = NDArray[np.floating]
-
-
 class TaxelMessageError(CloudFormatError):
     """A message that claims to be a taxel array is malformed."""
-
-
-@dataclass(frozen=True)
-class TaxelArray:
-    """One skin patch's taxels at one instant, in the frame of the link the patch is on.
-
-    Attributes:
-        positions: (N, 3) taxel centres [m].
-        normals: (N, 3) outward unit normals.
-        forces: (N,) normal force on each taxel [N].
-        weights: (N,) the paper's ω (eq. 5), or ``None`` for all ones.
-        frame_id: the link frame the positions are expressed in.
-        stamp_ns: acquisition time [ns].
-    """
-
-    positions: FloatArray
-    normals: FloatArray
-    forces: FloatArray
-    weights: FloatArray | None
-    frame_id: str
-    stamp_ns: int
-
-    @property
-    def size(self) -> int:
-        return int(self.forces.shape[0])
-
-
-def _check_shapes(
-    positions: FloatArray, normals: FloatArray, forces: FloatArray, weights: FloatArray | None
-) -> int:
-    n = forces.shape[0] if forces.ndim == 1 else -1
-    if forces.ndim != 1:
-        raise ValueError(f"forces must be 1-D, got shape {forces.shape}")
-    if positions.shape != (n, 3):
-        raise ValueError(f"positions must have shape ({n}, 3), got {positions.shape}")
-    if normals.shape != (n, 3):
-        raise ValueError(f"normals must have shape ({n}, 3), got {normals.shape}")
-    if weights is not None and weights.shape != (n,):
-        raise ValueError(f"weights must have shape ({n},), got {weights.shape}")
-    return n
 
 
 def taxels_to_msg(taxels: TaxelArray) -> PointCloud2:
@@ -104,10 +65,10 @@ class TaxelCloudEncoder:
         frame_id: str,
         weights: FloatArray | None = None,
     ) -> None:
-        positions = np.asarray(positions, dtype=np.float64)
-        normals = np.asarray(normals, dtype=np.float64)
-        w = None if weights is None else np.asarray(weights, dtype=np.float64)
-        n = _check_shapes(positions, normals, np.zeros(positions.shape[0]), w)
+        # The geometry is validated as a TaxelArray's (same shape rules, same messages).
+        n = np.shape(positions)[0] if np.ndim(positions) == 2 else -1
+        geometry = TaxelArray(positions, normals, np.zeros(max(n, 0)), weights, frame_id, 0)
+        positions, normals, w = geometry.positions, geometry.normals, geometry.weights
         self._records = np.zeros(n, dtype=_DTYPE if w is None else _DTYPE_WEIGHTED)
         for i, axis in enumerate("xyz"):
             self._records[axis] = positions[:, i]
@@ -148,10 +109,8 @@ def msg_to_taxels(msg: PointCloud2) -> TaxelArray:
         TaxelMessageError: a required field is missing, has the wrong type, or the byte count
             does not match the header.
     """
+    require_fields(msg, TAXEL_FIELDS, "taxel array", TaxelMessageError)
     names = [f.name for f in msg.fields]
-    missing = [name for name in TAXEL_FIELDS if name not in names]
-    if missing:
-        raise TaxelMessageError(f"taxel array lacks field(s) {', '.join(missing)}")
     try:
         records = cloud_records(msg)
     except CloudFormatError as err:

@@ -9,9 +9,9 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from sensor_msgs.msg import PointCloud2, PointField
 
-from phri_common.contact import ContactMessageError, ContactState, contact_to_msg, msg_to_contact
+from phri_common.contact import ContactMessageError, contact_to_msg, msg_to_contact
+from phri_common.records import ContactState, TaxelArray
 from phri_common.taxels import (
-    TaxelArray,
     TaxelCloudEncoder,
     TaxelMessageError,
     msg_to_taxels,

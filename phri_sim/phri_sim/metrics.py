@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from phri_common.contact import ContactState
+from phri_common.records import ContactState
 from phri_sim.sim import Simulation
 
 FloatArray = NDArray[np.float64]

@@ -42,7 +42,8 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Float64MultiArray
 
-from phri_common.contact import ContactMessageError, ContactState, msg_to_contact
+from phri_common.contact import ContactMessageError, msg_to_contact
+from phri_common.records import ContactState
 from phri_sim.bridge import SimBridgeNode
 from phri_sim.metrics import MetricsRecorder
 from phri_sim.scenarios import SCENARIOS, SKIN_LINKS

@@ -11,7 +11,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from phri_common.contact import ContactState
+from phri_common.records import ContactState
 from wholebody_controller.config import LinkTaskConfig
 from wholebody_controller.contact_task import ContactTask, Phase, priority, track_force
 from wholebody_controller.so3 import exp_so3

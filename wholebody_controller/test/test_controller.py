@@ -13,7 +13,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from wbc_fake_kinematics import FakeKinematics
 
-from phri_common.contact import ContactState
+from phri_common.records import ContactState
 from wholebody_controller.config import (
     CONTACT_CENTRING,
     CONTACT_TRACKING,

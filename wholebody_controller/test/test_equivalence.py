@@ -19,7 +19,7 @@ from hypothesis.extra.numpy import arrays
 from wbc_fake_kinematics import FakeKinematics
 from wbc_reference import RefController
 
-from phri_common.contact import ContactState
+from phri_common.records import ContactState
 from wholebody_controller.admittance import Admittance, discretise
 from wholebody_controller.config import (
     CONTACT_CENTRING,

@@ -19,7 +19,8 @@ from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 from wbc_fake_kinematics import FakeKinematics
 
-from phri_common.contact import ContactState, contact_to_msg
+from phri_common.contact import contact_to_msg
+from phri_common.records import ContactState
 from phri_common.testing import spin_until
 from wholebody_controller.config import SKIN_LINKS
 from wholebody_controller.messages import msg_to_task_state

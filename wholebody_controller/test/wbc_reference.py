@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from phri_common.contact import ContactState
+from phri_common.records import ContactState
 from wholebody_controller.admittance import discretise
 from wholebody_controller.config import ControllerConfig, LinkTaskConfig, diag6
 from wholebody_controller.contact_task import Phase

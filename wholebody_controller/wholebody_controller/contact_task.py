@@ -18,7 +18,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from phri_common.contact import ContactState
+from phri_common.records import ContactState
 from wholebody_controller.admittance import Admittance
 from wholebody_controller.config import LinkTaskConfig, diag6
 from wholebody_controller.so3 import Mat9, log_of_product_transpose_f

@@ -35,7 +35,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from phri_common.contact import ContactState
+from phri_common.records import ContactState
 from wholebody_controller.config import ControllerConfig
 from wholebody_controller.contact_task import TARGET, ContactTask, TaskOutput
 from wholebody_controller.qp import QPBuilder, QPError, QPProblem, QPSolver, make_solver

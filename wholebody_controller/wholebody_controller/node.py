@@ -30,8 +30,9 @@ from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 
-from phri_common.contact import ContactMessageError, ContactState, msg_to_contact
+from phri_common.contact import ContactMessageError, msg_to_contact
 from phri_common.params import ParamValue
+from phri_common.records import ContactState
 from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
 from wholebody_controller.controller import KinematicsModel, WholeBodyController

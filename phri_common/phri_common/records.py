@@ -1,0 +1,163 @@
+"""phri's core value types: one link's contact state and one skin patch's taxel array (pure).
+
+No ROS message package is imported here: the estimator and the controller work on these types
+and can be imported, tested and benchmarked without ROS. The message codecs
+(:mod:`phri_common.contact`, :mod:`phri_common.taxels`) import these types, never the reverse.
+
+Both types are immutable values: every array they hold is read-only (a writable array handed in
+is copied first, so the caller keeps its buffer), and ``==`` compares every field element-wise.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+Vector3 = NDArray[np.float64]
+FloatArray = NDArray[np.floating]
+
+CONTACT_VECTORS: tuple[str, ...] = ("center", "force", "torque", "region_min", "region_max")
+
+
+def is_frozen(array: np.ndarray) -> bool:
+    """Whether no numpy array in ``array``'s base chain can write its memory."""
+    a: object = array
+    while isinstance(a, np.ndarray):
+        if a.flags.writeable:
+            return False
+        a = a.base
+    return True
+
+
+def frozen(value: object, shape: tuple[int, ...], what: str, dtype: type = np.float64) -> NDArray:
+    """``value`` as a read-only array of ``shape``: no copy if it already is one, else a copy.
+
+    Raises:
+        ValueError: the shape differs; the message names ``what`` and both shapes.
+    """
+    if (type(value) is np.ndarray and value.dtype == dtype and value.shape == shape
+            and is_frozen(value)):
+        return value
+    array: NDArray = np.array(value, dtype=dtype)
+    if array.shape != shape:
+        raise ValueError(f"{what} must have shape {shape}, got {array.shape}")
+    array.flags.writeable = False
+    return array
+
+
+def _zero3() -> Vector3:
+    return _ZERO3
+
+
+_ZERO3: Vector3 = np.zeros(3)
+_ZERO3.flags.writeable = False
+
+
+@dataclass(frozen=True, eq=False)
+class ContactState:
+    """One link's contact state (paper Sec. IV-A/B), all vectors in the link frame.
+
+    Attributes:
+        link: link frame name.
+        stamp_ns: acquisition time [ns].
+        in_contact: whether any taxel is over the threshold.
+        center: contact centre ᶦp_η (5) [m].
+        force: resultant force ᶦf_η (9a) on the link [N].
+        torque: torque about the centre ᶦτ_η (9b), limited [N·m].
+        region_min: lower corner of the contact region Ω_i [m].
+        region_max: upper corner of the contact region Ω_i [m].
+        taxel_count: number of taxels in contact.
+    """
+
+    link: str
+    stamp_ns: int
+    in_contact: bool = False
+    center: Vector3 = field(default_factory=_zero3)
+    force: Vector3 = field(default_factory=_zero3)
+    torque: Vector3 = field(default_factory=_zero3)
+    region_min: Vector3 = field(default_factory=_zero3)
+    region_max: Vector3 = field(default_factory=_zero3)
+    taxel_count: int = 0
+
+    def __post_init__(self) -> None:
+        for name in CONTACT_VECTORS:
+            value = getattr(self, name)
+            array = frozen(value, (3,), f"contact state {name}")
+            if array is not value:
+                object.__setattr__(self, name, array)
+
+    @classmethod
+    def no_contact(cls, link: str, stamp_ns: int) -> ContactState:
+        """The explicit no-contact state: flag false, count 0, every vector zero."""
+        return cls(link=link, stamp_ns=stamp_ns)
+
+    def _key(self) -> tuple[object, ...]:
+        return (self.link, self.stamp_ns, bool(self.in_contact), self.taxel_count,
+                *(tuple(getattr(self, name).tolist()) for name in CONTACT_VECTORS))
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, ContactState):
+            return NotImplemented
+        return self._key() == other._key()
+
+    def __hash__(self) -> int:
+        return hash(self._key())
+
+
+@dataclass(frozen=True, eq=False)
+class TaxelArray:
+    """One skin patch's taxels at one instant, in the frame of the link the patch is on.
+
+    Attributes:
+        positions: (N, 3) taxel centres [m].
+        normals: (N, 3) outward unit normals.
+        forces: (N,) normal force on each taxel [N].
+        weights: (N,) the paper's ω (eq. 5), or ``None`` for all ones.
+        frame_id: the link frame the positions are expressed in.
+        stamp_ns: acquisition time [ns].
+    """
+
+    positions: FloatArray
+    normals: FloatArray
+    forces: FloatArray
+    weights: FloatArray | None
+    frame_id: str
+    stamp_ns: int
+
+    def __post_init__(self) -> None:
+        forces = np.asarray(self.forces)
+        if forces.ndim != 1:
+            raise ValueError(f"taxel forces must be 1-D, got shape {forces.shape}")
+        n = forces.shape[0]
+        shapes = {"positions": (n, 3), "normals": (n, 3), "forces": (n,), "weights": (n,)}
+        for name, shape in shapes.items():
+            value = getattr(self, name)
+            if value is None:
+                continue
+            kind = value.dtype.type if isinstance(value, np.ndarray) and value.dtype.kind == "f" \
+                else np.float64
+            array = frozen(value, shape, f"taxel {name}", kind)
+            if array is not value:
+                object.__setattr__(self, name, array)
+
+    @property
+    def size(self) -> int:
+        """Number of taxels N."""
+        return int(self.forces.shape[0])
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, TaxelArray):
+            return NotImplemented
+        if (self.frame_id, self.stamp_ns) != (other.frame_id, other.stamp_ns):
+            return False
+        if (self.weights is None) != (other.weights is None):
+            return False
+        pairs = [(self.positions, other.positions), (self.normals, other.normals),
+                 (self.forces, other.forces)]
+        if self.weights is not None and other.weights is not None:
+            pairs.append((self.weights, other.weights))
+        return all(np.array_equal(a, b) for a, b in pairs)
+
+    __hash__ = None  # type: ignore[assignment]  # large arrays: equality, no hashing
