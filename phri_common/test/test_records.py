@@ -15,11 +15,11 @@ ROS_MODULES = ("rclpy", "sensor_msgs", "std_msgs", "geometry_msgs", "nav_msgs",
 
 
 def touching(**changes: object) -> ContactState:
-    fields: dict[str, object] = dict(
-        link="left_forearm_link", stamp_ns=7, in_contact=True, center=[0.1, 0.2, 0.3],
-        force=[1.0, 2.0, 3.0], torque=[0.0, 0.1, 0.0], region_min=[0.0, 0.1, 0.2],
-        region_max=[0.2, 0.3, 0.4], taxel_count=5,
-    )
+    fields: dict[str, object] = {
+        "link": "left_forearm_link", "stamp_ns": 7, "in_contact": True,
+        "center": [0.1, 0.2, 0.3], "force": [1.0, 2.0, 3.0], "torque": [0.0, 0.1, 0.0],
+        "region_min": [0.0, 0.1, 0.2], "region_max": [0.2, 0.3, 0.4], "taxel_count": 5,
+    }
     fields.update(changes)
     return ContactState(**fields)  # type: ignore[arg-type]
 
