@@ -158,7 +158,7 @@ def controller_cases(repeats: int) -> dict[str, Case]:
     kin = RobotKinematics()
     ctl = WholeBodyController(kin)
     res = ctl.step(Q_HOME, contact_seq[0])
-    points = [task.point_array for task in ctl.tasks]
+    points = [task.jacobian_point for task in ctl.tasks]
     blocks = ctl._jacobian_blocks
 
     def kinematics(_k: int) -> None:
@@ -177,7 +177,7 @@ def controller_cases(repeats: int) -> dict[str, Case]:
     def tasks(k: int) -> None:
         contacts = contact_seq[k]
         for task, (rot, pos) in zip(ctl.tasks, poses, strict=True):
-            task.advance(contacts[task.config.link], rot, pos, 1.0, 0.0)
+            task.step(contacts[task.config.link], rot, pos, 1.0, 0.0)
 
     cases["    3 tasks: (10)-(20) + Algorithm 1"] = tasks
     target = np.concatenate([t.target for t in res.tasks])

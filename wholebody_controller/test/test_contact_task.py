@@ -10,14 +10,20 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
+from wbc_rotations import exp_rotvec
 
 from phri_common.records import ContactState
 from wholebody_controller.config import LinkTaskConfig
-from wholebody_controller.contact_task import ContactTask, Phase, priority, track_force
-from wholebody_controller.so3 import exp_so3
+from wholebody_controller.contact_task import (
+    ContactTask,
+    Phase,
+    TaskOutput,
+    priority,
+    track_force,
+)
 
 LINK = "left_forearm_link"
-ROT = exp_so3(np.array([0.3, -0.5, 1.1]))
+ROT = exp_rotvec(np.array([0.3, -0.5, 1.1]))
 POS = np.array([0.4, 0.2, 1.1])
 CENTER = np.array([-0.2, 0.01, 0.05])
 HALF = np.array([0.02, 0.015, 0.0])
@@ -26,6 +32,12 @@ HALF = np.array([0.02, 0.015, 0.0])
 def contact(force: np.ndarray, center: np.ndarray = CENTER, k: int = 0) -> ContactState:
     return ContactState(LINK, k, True, center.copy(), np.asarray(force, float), np.zeros(3),
                         center - HALF, center + HALF, 12)
+
+
+def step(task: ContactTask, state: ContactState, rot: np.ndarray, pos: np.ndarray,
+         yaw: float) -> TaskOutput:
+    """One task step with array inputs (the controller hands floats)."""
+    return task.step(state, rot.ravel().tolist(), pos.tolist(), math.cos(yaw), math.sin(yaw))
 
 
 def make_task(**kwargs: object) -> ContactTask:
@@ -50,7 +62,7 @@ def test_track_force_vanishes_exactly_when_region_is_inside(a: np.ndarray, b: np
                                                            c: np.ndarray, d: np.ndarray) -> None:
     lo, hi = np.minimum(a, b), np.maximum(a, b)
     dlo, dhi = np.minimum(c, d), np.maximum(c, d)
-    mu = track_force(lo, hi, dlo, dhi)
+    mu = np.array(track_force(lo, hi, dlo, dhi))
     inside = bool(np.all(lo >= dlo) and np.all(hi <= dhi))
     assert inside == bool(np.all(mu == 0.0))
     # Per axis, μ points from Ω_d towards the part of Ω that sticks out (when one side does).
@@ -77,7 +89,7 @@ def test_priority_shape() -> None:
 def test_no_contact_stays_inactive_at_psi_thr() -> None:
     task = make_task()
     for k in range(50):
-        out = task.update(ContactState.no_contact(LINK, k), ROT, POS, 0.0)
+        out = step(task, ContactState.no_contact(LINK, k), ROT, POS, 0.0)
         assert out.phase is Phase.INACTIVE
         assert out.psi == 1e-4
         np.testing.assert_array_equal(out.target, 0.0)
@@ -86,7 +98,7 @@ def test_no_contact_stays_inactive_at_psi_thr() -> None:
 
 def test_onset_locks_reference_and_region_with_margin() -> None:
     task = make_task()
-    out = task.update(contact(ROT.T @ np.array([0.0, 0.0, -8.0])), ROT, POS, 0.0)
+    out = step(task, contact(ROT.T @ np.array([0.0, 0.0, -8.0])), ROT, POS, 0.0)
     assert out.phase is Phase.ACTIVATING and out.psi > 1e-4
     ref = task.locked_reference
     region = task.desired_region
@@ -96,7 +108,7 @@ def test_onset_locks_reference_and_region_with_margin() -> None:
     np.testing.assert_allclose(region[0], CENTER - HALF - 0.01)
     np.testing.assert_allclose(region[1], CENTER + HALF + 0.01)
     # The lock holds while the link moves on.
-    task.update(contact(np.zeros(3) + 1.0), ROT, POS + 0.3, 0.0)
+    step(task, contact(np.zeros(3) + 1.0), ROT, POS + 0.3, 0.0)
     ref2 = task.locked_reference
     assert ref2 is not None
     np.testing.assert_array_equal(ref2[1], POS)
@@ -105,16 +117,16 @@ def test_onset_locks_reference_and_region_with_margin() -> None:
 def test_track_force_only_when_region_leaves_desired_region() -> None:
     task = make_task()
     f_local = np.array([0.0, 0.0, -5.0])
-    task.update(contact(f_local), ROT, POS, 0.0)
+    step(task, contact(f_local), ROT, POS, 0.0)
     # Slide 5 mm along link x: within the 1 cm margin → no track force.
-    out = task.update(contact(f_local, CENTER + np.array([0.005, 0, 0])), ROT, POS, 0.0)
+    out = step(task, contact(f_local, CENTER + np.array([0.005, 0, 0])), ROT, POS, 0.0)
     np.testing.assert_array_equal(out.track_force, 0.0)
     # Slide 3 cm along link x: 2 cm past x_d⁺ → k_η·0.02 along the link's x axis (world).
-    out = task.update(contact(f_local, CENTER + np.array([0.03, 0, 0])), ROT, POS, 0.0)
+    out = step(task, contact(f_local, CENTER + np.array([0.03, 0, 0])), ROT, POS, 0.0)
     np.testing.assert_allclose(out.track_force, 200.0 * 0.02 * ROT[:, 0], atol=1e-12)
     np.testing.assert_allclose(out.wrench[0:3], ROT @ f_local + out.track_force, atol=1e-12)
     # Slide back the other way: 2 cm past x_d⁻ → along −x.
-    out = task.update(contact(f_local, CENTER - np.array([0.03, 0, 0])), ROT, POS, 0.0)
+    out = step(task, contact(f_local, CENTER - np.array([0.03, 0, 0])), ROT, POS, 0.0)
     np.testing.assert_allclose(out.track_force, -200.0 * 0.02 * ROT[:, 0], atol=1e-12)
 
 
@@ -123,7 +135,7 @@ def test_psi_rises_with_deflection_velocity_and_falls_back_after_release() -> No
     phases, psis, speeds = [], [], []
     for k in range(300):
         c = contact(np.array([0.0, 6.0, 0.0]), k=k) if k < 100 else ContactState.no_contact(LINK, k)
-        out = task.update(c, ROT, POS, 0.0)
+        out = step(task, c, ROT, POS, 0.0)
         phases.append(out.phase)
         psis.append(out.psi_raw)
         speeds.append(float(np.linalg.norm(out.deflection_velocity)))
@@ -148,7 +160,7 @@ def test_push_demands_motion_along_the_push_while_link_is_still() -> None:
     task = make_task()
     force = np.array([3.0, -4.0, 0.0])
     for k in range(20):
-        out = task.update(contact(ROT.T @ force, center=np.zeros(3), k=k), ROT, POS, 0.0)
+        out = step(task, contact(ROT.T @ force, center=np.zeros(3), k=k), ROT, POS, 0.0)
     direction = force / np.linalg.norm(force)
     assert out.target[0:3] @ direction > 0.99 * np.linalg.norm(out.target[0:3])
     np.testing.assert_allclose(out.target[3:6], 0.0, atol=1e-12)
@@ -158,7 +170,7 @@ def test_waltz_lock_and_desired_force_in_base_frame() -> None:
     task = make_task(priority_lock=1.0, desired_force=(0.0, -10.0, 0.0))
     yaw = math.pi / 2  # base x → world y, base −y → world +x
     for k in range(30):
-        out = task.update(ContactState.no_contact(LINK, k), ROT, POS, yaw)
+        out = step(task, ContactState.no_contact(LINK, k), ROT, POS, yaw)
         assert out.psi == 1.0
         assert out.phase in (Phase.ACTIVATING, Phase.ACTIVE)
     np.testing.assert_allclose(out.wrench, [10.0, 0, 0, 0, 0, 0], atol=1e-12)
@@ -167,11 +179,11 @@ def test_waltz_lock_and_desired_force_in_base_frame() -> None:
 
 
 def test_user_reference_and_region() -> None:
-    ref_rot = exp_so3(np.array([0.0, 0.0, 0.2]))
+    ref_rot = exp_rotvec(np.array([0.0, 0.0, 0.2]))
     ref = (*ref_rot.ravel(), 1.0, 2.0, 3.0)
     region = ((-0.5, -0.5, -0.5), (0.5, 0.5, 0.5))
     task = make_task(priority_lock=0.5, reference=ref, desired_region=region)
-    out = task.update(contact(np.zeros(3)), ROT, POS, 0.0)
+    out = step(task, contact(np.zeros(3)), ROT, POS, 0.0)
     locked = task.locked_reference
     desired = task.desired_region
     assert locked is not None and desired is not None

@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 from wbc_fake_kinematics import FakeKinematics
-
-from wholebody_controller.so3 import log_so3
+from wbc_rotations import log_rotation
 
 
 def test_point_jacobian_matches_finite_differences() -> None:
@@ -26,4 +25,4 @@ def test_point_jacobian_matches_finite_differences() -> None:
             r0, p0 = kin.link_pose(link)
             np.testing.assert_allclose((r1 @ point + p1 - r0 @ point - p0) / (2 * h), jac[0:3, i],
                                        atol=1e-7)
-            np.testing.assert_allclose(log_so3(r1 @ r0.T) / (2 * h), jac[3:6, i], atol=1e-7)
+            np.testing.assert_allclose(log_rotation(r1 @ r0.T) / (2 * h), jac[3:6, i], atol=1e-7)

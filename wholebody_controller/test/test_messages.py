@@ -9,7 +9,7 @@ import pytest
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import JointState
 
-from wholebody_controller.contact_task import Phase, TaskOutput
+from wholebody_controller.contact_task import N_VALUES, Phase, TaskOutput
 from wholebody_controller.messages import (
     TASK_STATE_FIELDS,
     InputError,
@@ -60,12 +60,8 @@ def test_bad_odometry_and_joint_states_are_refused() -> None:
 
 def test_task_state_round_trip() -> None:
     rng = np.random.default_rng(0)
-    task = TaskOutput(
-        link="left_forearm_link", phase=Phase.DEACTIVATING, psi=0.3, psi_raw=0.3,
-        point=rng.normal(size=3), target=rng.normal(size=6), control_velocity=rng.normal(size=6),
-        wrench=rng.normal(size=6), track_force=rng.normal(size=3), deflection=rng.normal(size=6),
-        deflection_velocity=rng.normal(size=6), in_contact=False,
-    )
+    task = TaskOutput(link="left_forearm_link", phase=Phase.DEACTIVATING, psi=0.3, psi_raw=0.3,
+                      in_contact=False, values=tuple(rng.normal(size=N_VALUES).tolist()))
     error = rng.normal(size=6)
     msg = task_state_to_msg(task, error, 123_000_000_456, "odom")
     assert msg.header.frame_id == "odom" and msg.header.stamp.nanosec == 456

@@ -82,7 +82,7 @@ class FakeKinematics:
         t = self._chains[side][k]
         return t[0:3, 0:3].copy(), t[0:3, 3].copy()
 
-    def point_jacobian(self, link: str, point: Array) -> Array:
+    def point_jacobian(self, link: str, point: Array, out: Array | None = None) -> Array:
         side, k, offset = self._locate(link)
         frames = self._chains[side]
         t = frames[k]
@@ -98,4 +98,7 @@ class FakeKinematics:
             o = frames[j][0:3, 3]
             jac[0:3, offset + j] = np.cross(z, p - o)
             jac[3:6, offset + j] = z
+        if out is not None:
+            out[...] = jac
+            return out
         return jac

@@ -1,10 +1,10 @@
 """Straightforward numpy reference of the control step (test-only).
 
-This is the first, array-per-operation implementation of (10)–(23) and Algorithm 1 that the
-optimised :mod:`wholebody_controller.contact_task` and :mod:`wholebody_controller.controller`
-replaced.
-It is kept as the oracle of the equivalence tests (``test_equivalence.py``): on random inputs the
-fast path must agree with it to 1e-9. Readability over speed: every quantity is a numpy array.
+An array-per-operation implementation of (10)–(23) and Algorithm 1, written independently of the
+float code of :mod:`wholebody_controller.contact_task` and :mod:`wholebody_controller.controller`:
+its SO(3) maps come from scipy (``wbc_rotations``), not from ``so3.py``, so an error in a
+production coefficient cannot hide in both. It is the oracle of ``test_equivalence.py``: on random
+inputs the fast path must agree with it to 1e-9. Readability over speed.
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+from wbc_rotations import exp_rotvec, log_rotation, world_angular_velocity
 
 from phri_common.records import ContactState
 from wholebody_controller.admittance import discretise
@@ -22,7 +23,6 @@ from wholebody_controller.config import ControllerConfig, LinkTaskConfig, diag6
 from wholebody_controller.contact_task import Phase
 from wholebody_controller.controller import KinematicsModel
 from wholebody_controller.qp import QPProblem, QPSolver, build_qp, make_solver, velocity_bounds
-from wholebody_controller.so3 import cross, exp_and_left_jacobian_so3, log_so3
 
 Array = NDArray[np.float64]
 _ZERO3 = np.zeros(3)
@@ -135,13 +135,12 @@ class RefTask:
             assert self.ref_rot is not None and self.ref_pos is not None
             phase = Phase.ACTIVATING if activating else (
                 Phase.ACTIVE if in_contact or lock is not None else Phase.DEACTIVATING)
-            exp_d, jac_l = exp_and_left_jacobian_so3(defl[3:6])
-            rot_d = exp_d @ self.ref_rot
-            omega_d = jac_l @ dv[3:6]
+            rot_d = exp_rotvec(defl[3:6]) @ self.ref_rot
+            omega_d = world_angular_velocity(defl[3:6], dv[3:6])
             rd_p = rot_d @ point
             target[0:3] = (self.k_p * (self.ref_pos + defl[0:3] - pos + rd_p - rot @ point)
-                           + dv[0:3] + cross(omega_d, rd_p))
-            target[3:6] = self.k_p * log_so3(rot_d @ rot.T) + omega_d
+                           + dv[0:3] + np.cross(omega_d, rd_p))
+            target[3:6] = self.k_p * log_rotation(rot_d @ rot.T) + omega_d
             control = target.copy()
             if rate is not None:
                 control[0:3] += rot_d @ rate

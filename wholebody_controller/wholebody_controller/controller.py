@@ -15,19 +15,17 @@ boxes in u; they must be infinite (as on the real robot) — yaw limits are allo
 Speed (design §7: the step must fit well inside 2 ms, beside contact estimation). At this size a
 numpy call costs as much as dozens of float operations, so the step makes few of them: q is
 validated once here (as floats), the tasks run on plain floats and return their
-:class:`TaskOutput` directly (:meth:`ContactTask.advance`), targets and weights of all tasks
+:class:`TaskOutput` directly (:meth:`ContactTask.step`), targets and weights of all tasks
 become one array, the Jacobians are written in place into one stacked buffer
-(``point_jacobian(..., out=)`` when the kinematics offers it), the base-frame rotation is one
+(``point_jacobian(..., out=)``), the base-frame rotation is one
 product with a 15×15 matrix, :class:`~wholebody_controller.qp.QPBuilder` forms H and g with two
 products on ``2ΨJ``, q̇ comes from the command's floats, and the tracking errors (21) are
 only computed when read (:attr:`StepResult.tracking_errors`).
-``test/wbc_reference.py`` is the straightforward version the tests compare against (1e-9).
+``test/wbc_reference.py`` is an independent numpy/scipy version the tests compare against (1e-9).
 """
 
 from __future__ import annotations
 
-import inspect
-import math
 from collections.abc import Mapping, Sequence
 from math import cos, isfinite, sin
 from typing import Protocol
@@ -72,8 +70,9 @@ class KinematicsModel(Protocol):
         """(⁰R_i 3×3, ⁰p_γi 3) of a link frame in the world."""
         ...
 
-    def point_jacobian(self, link: str, point: Array) -> Array:
-        """6×n world-frame [linear; angular] Jacobian of a point fixed on the link (8)."""
+    def point_jacobian(self, link: str, point: Array, out: Array | None = None) -> Array:
+        """6×n world-frame [linear; angular] Jacobian of a point fixed on the link (8), written
+        into ``out`` (6×n, C-contiguous) when given, and returned."""
         ...
 
 
@@ -109,16 +108,6 @@ class StepResult:
         return f"StepResult(command={self.command!r}, tasks={self.tasks!r})"
 
 
-def base_command_to_rates(command: Array, yaw: float) -> Array:
-    """Body twist + arm velocities → q̇ (world rates of x, y, yaw)."""
-    c, s = math.cos(yaw), math.sin(yaw)
-    qdot = np.array(command, dtype=np.float64, copy=True)
-    vx, vy = qdot[0:2].tolist()
-    qdot[0] = c * vx - s * vy
-    qdot[1] = s * vx + c * vy
-    return qdot
-
-
 class WholeBodyController:
     """Admittance at every contact centre, soft dynamic priorities, one QP (Sec. IV-B – V)."""
 
@@ -141,12 +130,6 @@ class WholeBodyController:
         self._robot_position_limits = limits
         self._robot_velocity_limits = np.asarray(kinematics.velocity_limits, dtype=np.float64)
         self._solver_override = solver
-        # point_jacobian(link, point, out=) writes in place (RobotKinematics); optional.
-        try:
-            params = inspect.signature(kinematics.point_jacobian).parameters
-        except (TypeError, ValueError):
-            params = {}  # type: ignore[assignment]
-        self._jacobian_out = "out" in params
         self.config = ControllerConfig()
         self.tasks: list[ContactTask] = []
         self.configure(config or ControllerConfig())
@@ -243,21 +226,17 @@ class WholeBodyController:
         weights: list[float] = []
         outputs = []
         get = contacts.get
-        jacobian_out = self._jacobian_out
         for task, link, block in self._task_blocks:
             contact = get(link)
             if contact is None:
                 contact = task.no_contact
             rot, pos = link_pose(link)
-            out = task.advance(contact, rot.ravel().tolist(), pos.tolist(), c, s)
+            out = task.step(contact, rot.ravel().tolist(), pos.tolist(), c, s)
             outputs.append(out)
-            targets += out._values[TARGET]
-            psi2 = 2.0 * out._psi
+            targets += out.values[TARGET]
+            psi2 = 2.0 * out.psi
             weights += (psi2, psi2, psi2, psi2, psi2, psi2)
-            if jacobian_out:
-                point_jacobian(link, task.point_array, out=block)  # type: ignore[call-arg]
-            else:
-                block[...] = point_jacobian(link, task.point_array)
+            point_jacobian(link, task.jacobian_point, out=block)
         rows = self._rows
         targets += weights
         data = np.array(targets)
