@@ -335,18 +335,7 @@ class ContactEstimator:
             table = np.array(rows)
             table.flags.writeable = False  # the states' vectors are read-only views of it
             for r, link, stamp, count in contacting_links:
-                row = table[r]
-                states[link] = ContactState(
-                    link=link,
-                    stamp_ns=stamp,
-                    in_contact=True,
-                    center=row[0:3],
-                    force=row[3:6],
-                    torque=row[6:9],
-                    region_min=row[9:12],
-                    region_max=row[12:15],
-                    taxel_count=count,
-                )
+                states[link] = ContactState.from_row(link, stamp, True, table[r], count)
         return states
 
 

@@ -118,18 +118,12 @@ def _generic_values(msg: PointCloud2) -> tuple[float | int, ...]:
 
 def _contact_from_values(msg: PointCloud2, values: tuple[float | int, ...]) -> ContactState:
     """A :class:`ContactState` from the 15 vector floats, the count and the flag; finite only."""
-    table = np.array(values[:15], dtype=np.float64)
-    table.flags.writeable = False
-    vectors = {name: table[3 * i : 3 * i + 3] for i, name in enumerate(CONTACT_VECTORS)}
     if not math.isfinite(float(sum(values[:15]))) and not all(map(math.isfinite, values[:15])):
-        bad = [n for n, vec in vectors.items() if not np.all(np.isfinite(vec))]
+        vectors = np.reshape(values[:15], (5, 3))
+        bad = [n for n, vec in zip(CONTACT_VECTORS, vectors, strict=True)
+               if not np.all(np.isfinite(vec))]
         raise ContactMessageError(
             f"contact state of {msg.header.frame_id!r}: non-finite {', '.join(bad)}"
         )
-    return ContactState(
-        link=msg.header.frame_id,
-        stamp_ns=stamp_to_ns(msg.header.stamp),
-        in_contact=bool(values[16]),
-        taxel_count=int(values[15]),
-        **vectors,
-    )
+    return ContactState.from_row(msg.header.frame_id, stamp_to_ns(msg.header.stamp),
+                                 bool(values[16]), values[:15], int(values[15]))

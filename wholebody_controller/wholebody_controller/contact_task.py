@@ -70,9 +70,14 @@ def track_force(region_min: Vec3, region_max: Vec3, desired_min: Vec3,
     the way the contact slid, so the contact returns into Ω_d), past the −x face gives −x. Same
     frame as the inputs (here the link frame).
     """
-    return (max(region_max[0] - desired_max[0], 0.0) - max(desired_min[0] - region_min[0], 0.0),
-            max(region_max[1] - desired_max[1], 0.0) - max(desired_min[1] - region_min[1], 0.0),
-            max(region_max[2] - desired_max[2], 0.0) - max(desired_min[2] - region_min[2], 0.0))
+    ux, uy, uz = (region_max[0] - desired_max[0], region_max[1] - desired_max[1],
+                  region_max[2] - desired_max[2])
+    lx, ly, lz = (desired_min[0] - region_min[0], desired_min[1] - region_min[1],
+                  desired_min[2] - region_min[2])
+    # f_R written as conditionals: builtin max() costs a call each, six times per step.
+    return ((ux if ux > 0.0 else 0.0) - (lx if lx > 0.0 else 0.0),
+            (uy if uy > 0.0 else 0.0) - (ly if ly > 0.0 else 0.0),
+            (uz if uz > 0.0 else 0.0) - (lz if lz > 0.0 else 0.0))
 
 
 def contact_wrench(force: Vec3, torque: Vec3, mu: Vec3, k_eta: float, rot: Mat9) -> list[float]:
@@ -306,6 +311,8 @@ class ContactTask:
             if self._desired is not None:
                 lo, hi = contact.region_min.tolist(), contact.region_max.tolist()
                 mu = track_force(lo, hi, *self._desired)
+                if mu == _ZERO3:
+                    mu = _ZERO3  # the shared zero: no rotation needed downstream
             wrench = contact_wrench(contact.force.tolist(), contact.torque.tolist(),
                                     mu, self.k_eta, rot)
         fx, fy, fz = self.desired_force
@@ -363,9 +370,8 @@ class ContactTask:
             phase, velocities = _INACTIVE, _ZERO12
         x, v = adm.state_f
         k = self.k_eta
-        mu_world = rotate(rot, mu)
-        values = (*velocities, *wrench, *x, *v, *self._point,
-                  k * mu_world[0], k * mu_world[1], k * mu_world[2])
+        mx, my, mz = _ZERO3 if mu is _ZERO3 else rotate(rot, mu)
+        values = (*velocities, *wrench, *x, *v, *self._point, k * mx, k * my, k * mz)
         thr = self.psi_thr
         return TaskOutput(self.config.link, phase, psi_raw if psi_raw > thr else thr, psi_raw,
                           bool(contact.in_contact), values)
