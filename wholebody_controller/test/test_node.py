@@ -216,7 +216,8 @@ class SimClockHarness(Harness):
                 return abs(node.now_s() - now) < 1e-9
 
             def inputs_seen(now: float = now) -> bool:
-                return node.odom_time == now and min(node.contact_time.values()) == now
+                fresh = node.freshness
+                return fresh.odom_time == now and min(fresh.contact_time.values()) == now
 
             assert spin_until(self.executor, clock_seen, 5.0)
             if inputs:
@@ -235,6 +236,15 @@ def test_staleness_follows_sim_time_not_the_wall_clock(ros_context: object) -> N
     try:
         node = h.node
         force = np.array([0.0, 0.0, 12.0])
+        assert node.controller is not None
+        resets: list[float] = []
+        reset = node.controller.reset
+
+        def counted_reset() -> None:
+            resets.append(node.now_s())
+            reset()
+
+        node.controller.reset = counted_reset  # type: ignore[method-assign]
         # Sim time advancing with fresh inputs → commands.
         h.advance(0.5, inputs=True, force=force)
         assert node.good_cycles > 5 and nonzero(h.left)
@@ -243,7 +253,7 @@ def test_staleness_follows_sim_time_not_the_wall_clock(ros_context: object) -> N
         # input is stale in sim time, so no zero cycle (the wall clock must not matter).
         zero_before = node.zero_cycles
         h.spin(0.3)
-        assert node.stale_reason(node.now_s()) is None
+        assert node.freshness.stale_reason(node.now_s()) is None
         h.advance(0.02, inputs=True, force=force)
         assert node.zero_cycles == zero_before and nonzero(h.left)
         # Inputs stop while sim time runs on: zero once sim time passes the timeout (0.1 s),
@@ -255,6 +265,9 @@ def test_staleness_follows_sim_time_not_the_wall_clock(ros_context: object) -> N
         assert node.zero_cycles > zero_before and not nonzero(h.left)
         assert h.twists[-1].linear.x == 0.0 and h.twists[-1].angular.z == 0.0
         assert node.good_cycles - good_before <= 10
+        # The tasks were reset once, when the inputs went stale (not at start-up, not per cycle).
+        h.advance(0.05, inputs=False)
+        assert len(resets) == 1 and node.zero_cycles > zero_before + 3
         # Inputs come back → commands resume.
         h.advance(0.2, inputs=True, force=force)
         assert nonzero(h.left)
