@@ -159,11 +159,21 @@ def test_parameters_validated_and_applied(harness: Harness) -> None:
     cfg = node.controller.config.link("left_forearm_link")
     assert cfg.priority_lock == 1.0 and cfg.desired_force == (0.0, -10.0, 0.0)
     assert node.controller.solver.name == "osqp"
+    # The input timeouts reach the freshness rules at run time, each to its own input.
+    result = node.set_parameters([Parameter("contact_timeout", value=0.5),
+                                  Parameter("joint_state_timeout", value=0.25),
+                                  Parameter("odom_timeout", value=0.75)])
+    assert all(r.successful for r in result)
+    config = node.freshness.config
+    assert (config.contact_timeout, config.joint_state_timeout, config.odom_timeout) == (
+        0.5, 0.25, 0.75)
 
 
 @pytest.mark.ros
 def test_record_q_dance_and_shutdown_zero(harness: Harness) -> None:
     node = harness.node
+    res = node._record_q_dance(Trigger.Request(), Trigger.Response())
+    assert not res.success and "every arm joint" in res.message  # no joint state yet (F4)
     assert harness.run(lambda: node.good_cycles > 2, force=None)
     res = node._record_q_dance(Trigger.Request(), Trigger.Response())
     assert res.success, res.message
