@@ -152,12 +152,12 @@ class WholeBodyControllerNode(Node):
 
     @property
     def odom_time(self) -> float:
-        """When the latest odometry arrived (node clock [s]; −∞: never)."""
+        """When the latest odometry arrived (node clock [s]; −∞: never; phri_sim's lock-step)."""
         return self.freshness.odom_time
 
     @property
     def arm_time(self) -> tuple[float, ...]:
-        """When each arm joint's latest position arrived (node clock [s]; −∞: never)."""
+        """When each arm joint's position last arrived (node clock [s]; −∞: never; phri_sim)."""
         return self.freshness.joint_time
 
     def _refuse(self, what: str, err: Exception) -> None:
