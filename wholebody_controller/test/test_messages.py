@@ -58,18 +58,36 @@ def test_bad_odometry_and_joint_states_are_refused() -> None:
         "a": 0.5, "b": -1.0}
 
 
-def test_task_state_round_trip() -> None:
-    rng = np.random.default_rng(0)
-    task = TaskOutput(link="left_forearm_link", phase=Phase.DEACTIVATING, psi=0.3, psi_raw=0.3,
-                      in_contact=False, values=tuple(rng.normal(size=N_VALUES).tolist()))
-    error = rng.normal(size=6)
-    msg = task_state_to_msg(task, error, 123_000_000_456, "odom")
-    assert msg.header.frame_id == "odom" and msg.header.stamp.nanosec == 456
+def test_task_state_round_trip_keeps_every_field() -> None:
+    # Every value distinct (and exact in binary) so that two swapped fields cannot both match.
+    vectors = {name: [base + k / 8 for k in range(size)] for name, base, size in (
+        ("point", 10.0, 3), ("target", 20.0, 6), ("control_velocity", 30.0, 6),
+        ("wrench", 40.0, 6), ("track_force", 50.0, 3), ("deflection", 60.0, 6),
+        ("deflection_velocity", 70.0, 6))}
+    error = [80.0 + k / 8 for k in range(6)]
+    layout = ("target", "control_velocity", "wrench", "deflection", "deflection_velocity",
+              "point", "track_force")  # the order of TaskOutput.values
+    values = tuple(v for name in layout for v in vectors[name])
+    assert len(values) == N_VALUES
+    task = TaskOutput(link="left_forearm_link", phase=Phase.DEACTIVATING, psi=0.25, psi_raw=0.375,
+                      in_contact=True, values=values)
+    for name in layout:  # the layout above is the one TaskOutput reads
+        assert getattr(task, name).tolist() == vectors[name]
+    twist, pose, wrench, lin = ("vx", "vy", "vz", "wx", "wy", "wz"), (
+        "x", "y", "z", "rx", "ry", "rz"), ("fx", "fy", "fz", "tx", "ty", "tz"), ("x", "y", "z")
+    expected = {"psi": 0.25, "psi_raw": 0.375, "phase": 3.0, "in_contact": 1.0}
+    for field, axes, values in (
+        ("deflection", pose, vectors["deflection"]),
+        ("deflection_velocity", twist, vectors["deflection_velocity"]),
+        ("wrench", wrench, vectors["wrench"]), ("track_force", lin, vectors["track_force"]),
+        ("control_velocity", twist, vectors["control_velocity"]),
+        ("tracking_error", twist, error), ("center_link", lin, vectors["point"]),
+    ):
+        expected.update({f"{field}_{axis}": v for axis, v in zip(axes, values, strict=True)})
+    assert len(set(expected.values())) == len(expected), "test values must be distinct"
+
+    msg = task_state_to_msg(task, np.array(error), 123_000_000_456, "odom")
+    assert msg.header.frame_id == "odom"
+    assert (msg.header.stamp.sec, msg.header.stamp.nanosec) == (123, 456)
     assert [f.name for f in msg.fields] == list(TASK_STATE_FIELDS)
-    state = msg_to_task_state(msg)
-    assert state["psi"] == 0.3 and state["phase"] == Phase.DEACTIVATING
-    assert state["in_contact"] == 0.0
-    assert state["track_force_y"] == task.track_force[1]
-    assert state["deflection_rz"] == task.deflection[5]
-    assert state["tracking_error_wx"] == error[3]
-    assert state["center_link_z"] == task.point[2]
+    assert msg_to_task_state(msg) == expected

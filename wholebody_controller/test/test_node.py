@@ -160,11 +160,21 @@ def test_parameters_validated_and_applied(harness: Harness) -> None:
     cfg = node.controller.config.link("left_forearm_link")
     assert cfg.priority_lock == 1.0 and cfg.desired_force == (0.0, -10.0, 0.0)
     assert node.controller.solver.name == "osqp"
+    # The input timeouts reach the freshness rules at run time, each to its own input.
+    result = node.set_parameters([Parameter("contact_timeout", value=0.5),
+                                  Parameter("joint_state_timeout", value=0.25),
+                                  Parameter("odom_timeout", value=0.75)])
+    assert all(r.successful for r in result)
+    config = node.freshness.config
+    assert (config.contact_timeout, config.joint_state_timeout, config.odom_timeout) == (
+        0.5, 0.25, 0.75)
 
 
 @pytest.mark.ros
 def test_record_q_dance_and_shutdown_zero(harness: Harness) -> None:
     node = harness.node
+    res = node._record_q_dance(Trigger.Request(), Trigger.Response())
+    assert not res.success and "every arm joint" in res.message  # no joint state yet (F4)
     assert harness.run(lambda: node.good_cycles > 2, force=None)
     res = node._record_q_dance(Trigger.Request(), Trigger.Response())
     assert res.success, res.message
@@ -217,7 +227,8 @@ class SimClockHarness(Harness):
                 return abs(node.now_s() - now) < 1e-9
 
             def inputs_seen(now: float = now) -> bool:
-                return node.odom_time == now and min(node.contact_time.values()) == now
+                fresh = node.freshness
+                return fresh.odom_time == now and min(fresh.contact_time.values()) == now
 
             assert spin_until(self.executor, clock_seen, 5.0)
             if inputs:
@@ -236,6 +247,15 @@ def test_staleness_follows_sim_time_not_the_wall_clock(ros_context: object) -> N
     try:
         node = h.node
         force = np.array([0.0, 0.0, 12.0])
+        assert node.controller is not None
+        resets: list[float] = []
+        reset = node.controller.reset
+
+        def counted_reset() -> None:
+            resets.append(node.now_s())
+            reset()
+
+        node.controller.reset = counted_reset  # type: ignore[method-assign]
         # Sim time advancing with fresh inputs → commands.
         h.advance(0.5, inputs=True, force=force)
         assert node.good_cycles > 5 and nonzero(h.left)
@@ -244,7 +264,7 @@ def test_staleness_follows_sim_time_not_the_wall_clock(ros_context: object) -> N
         # input is stale in sim time, so no zero cycle (the wall clock must not matter).
         zero_before = node.zero_cycles
         h.spin(0.3)
-        assert node.stale_reason(node.now_s()) is None
+        assert node.freshness.stale_reason(node.now_s()) is None
         h.advance(0.02, inputs=True, force=force)
         assert node.zero_cycles == zero_before and nonzero(h.left)
         # Inputs stop while sim time runs on: zero once sim time passes the timeout (0.1 s),
@@ -256,6 +276,9 @@ def test_staleness_follows_sim_time_not_the_wall_clock(ros_context: object) -> N
         assert node.zero_cycles > zero_before and not nonzero(h.left)
         assert h.twists[-1].linear.x == 0.0 and h.twists[-1].angular.z == 0.0
         assert node.good_cycles - good_before <= 10
+        # The tasks were reset once, when the inputs went stale (not at start-up, not per cycle).
+        h.advance(0.05, inputs=False)
+        assert len(resets) == 1 and node.zero_cycles > zero_before + 3
         # Inputs come back → commands resume.
         h.advance(0.2, inputs=True, force=force)
         assert nonzero(h.left)

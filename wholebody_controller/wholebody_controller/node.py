@@ -4,7 +4,8 @@ Subscribes ``contacts/<link>`` (contact states), ``/joint_states`` and ``/odom``
 ``rate_hz`` runs one control cycle and publishes ``/cmd_vel``, ``left/…`` and
 ``right/forward_velocity_controller/commands`` and ``~/state/<link>``. Safety (design §8): any
 input older than its timeout, a QP failure, or a refused (NaN) input leads to a zero command in
-that cycle; the next good cycle recovers; shutdown publishes zero. See
+that cycle; the next good cycle recovers; shutdown publishes zero. The freshness rules live in
+:mod:`wholebody_controller.freshness`: the node reports arrivals and asks it once per cycle. See
 ``docs/wholebody_controller.md``.
 
 Time. Input ages are measured with the node's clock (``get_clock()``), the same clock that drives
@@ -36,6 +37,7 @@ from phri_common.records import ContactState
 from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
 from wholebody_controller.controller import KinematicsModel, WholeBodyController
+from wholebody_controller.freshness import FreshnessConfig, InputFreshness
 from wholebody_controller.messages import (
     InputError,
     arm_command,
@@ -61,6 +63,15 @@ def default_kinematics() -> KinematicsModel:
     return kin
 
 
+def freshness_config(values: dict[str, ParamValue]) -> FreshnessConfig:
+    """The input timeouts [s] from the node's parameter values."""
+    return FreshnessConfig(
+        contact_timeout=float(values["contact_timeout"]),
+        joint_state_timeout=float(values["joint_state_timeout"]),
+        odom_timeout=float(values["odom_timeout"]),
+    )
+
+
 class WholeBodyControllerNode(Node):
     """The whole-body controller node."""
 
@@ -84,22 +95,21 @@ class WholeBodyControllerNode(Node):
         specs = [*GLOBAL_PARAMS, *(s for link in self.links for s in link_param_specs(link))]
         self.controller: WholeBodyController | None = None
         self.params = declare_parameters(self, specs, self._on_params)
+        # When each input arrived (node clock) and whether a cycle may use them.
+        self.freshness = InputFreshness(self.links, self.arm_joints,
+                                        freshness_config(self.params))
         self.controller = WholeBodyController(self.kinematics, self._config(self.params))
 
         self._node_clock = self.get_clock()
-        # Latest inputs and when they arrived (node clock [s]; -inf = never).
+        # Latest inputs.
         self.contacts: dict[str, ContactState] = {}
-        self.contact_time = dict.fromkeys(self.links, -np.inf)
         self.arm_q = np.zeros(12)
-        self.arm_time = np.full(12, -np.inf)
         self.base_q = np.zeros(3)
-        self.odom_time = -np.inf
         # Counters (diagnostics and tests).
         self.rejected_inputs = 0
         self.qp_failures = 0
         self.zero_cycles = 0
         self.good_cycles = 0
-        self._stale = True
 
         self.cmd_pub = self.create_publisher(Twist, "/cmd_vel", 10)
         self.left_pub = self.create_publisher(
@@ -131,13 +141,25 @@ class WholeBodyControllerNode(Node):
 
     def _on_params(self, values: dict[str, ParamValue]) -> None:
         config = self._config(values)  # raises ValueError naming the parameter
+        timeouts = freshness_config(values)
         if self.controller is not None:
             self.controller.configure(config)
+            self.freshness.config = timeouts
 
     # -- inputs ---------------------------------------------------------------------------------
     def now_s(self) -> float:
         """The node clock [s] (simulation time under ``use_sim_time``; see the module docstring)."""
         return self._node_clock.now().nanoseconds * 1e-9
+
+    @property
+    def odom_time(self) -> float:
+        """When the latest odometry arrived (node clock [s]; −∞: never; phri_sim's lock-step)."""
+        return self.freshness.odom_time
+
+    @property
+    def arm_time(self) -> tuple[float, ...]:
+        """When each arm joint's position last arrived (node clock [s]; −∞: never; phri_sim)."""
+        return self.freshness.joint_time
 
     def _refuse(self, what: str, err: Exception) -> None:
         self.rejected_inputs += 1
@@ -152,7 +174,7 @@ class WholeBodyControllerNode(Node):
             self._refuse(f"contact state of {link}", err)
             return
         self.contacts[link] = state
-        self.contact_time[link] = self.now_s()
+        self.freshness.contact_arrived(link, self.now_s())
 
     def _on_joints(self, msg: JointState) -> None:
         try:
@@ -160,11 +182,10 @@ class WholeBodyControllerNode(Node):
         except InputError as err:
             self._refuse("joint state", err)
             return
-        now = self.now_s()
         for i, name in enumerate(self.arm_joints):
             if name in positions:
                 self.arm_q[i] = positions[name]
-                self.arm_time[i] = now
+        self.freshness.joints_arrived(positions.keys(), self.now_s())
 
     def _on_odom(self, msg: Odometry) -> None:
         try:
@@ -172,11 +193,11 @@ class WholeBodyControllerNode(Node):
         except InputError as err:
             self._refuse("odometry", err)
             return
-        self.odom_time = self.now_s()
+        self.freshness.odom_arrived(self.now_s())
 
     # -- services -------------------------------------------------------------------------------
     def _record_q_dance(self, _req: Trigger.Request, res: Trigger.Response) -> Trigger.Response:
-        if not np.all(np.isfinite(self.arm_time)):
+        if not self.freshness.all_joints_received():
             res.success, res.message = False, "no joint state received for every arm joint"
             return res
         result = self.set_parameters([
@@ -202,28 +223,6 @@ class WholeBodyControllerNode(Node):
         return res
 
     # -- control cycle --------------------------------------------------------------------------
-    def stale_reason(self, now: float) -> str | None:
-        """Why the inputs cannot be used at ``now`` (node clock [s]), or ``None``.
-
-        An input is stale when older than its timeout, or stamped after ``now`` (the clock jumped
-        back, e.g. a simulation reset: the input belongs to another timeline).
-        """
-        p = self.params
-        contact_timeout = float(p["contact_timeout"])
-        stale_links = [
-            k for k, t in self.contact_time.items() if not 0.0 <= now - t <= contact_timeout
-        ]
-        if stale_links:
-            return f"stale contact states: {', '.join(stale_links)}"
-        joint_age = now - float(np.min(self.arm_time))
-        if not 0.0 <= joint_age <= float(p["joint_state_timeout"]) or now < float(
-            np.max(self.arm_time)
-        ):
-            return "stale joint states"
-        if not 0.0 <= now - self.odom_time <= float(p["odom_timeout"]):
-            return "stale odometry"
-        return None
-
     def publish_zero(self) -> None:
         """Zero base twist and zero arm velocities."""
         zero = np.zeros(15)
@@ -235,16 +234,15 @@ class WholeBodyControllerNode(Node):
         """One control cycle (timer callback)."""
         assert self.controller is not None
         now_ns = self._node_clock.now().nanoseconds
-        reason = self.stale_reason(now_ns * 1e-9)
-        if reason is not None:
-            if not self._stale:
-                self.get_logger().warning(f"{reason}: zero command", throttle_duration_sec=1.0)
+        verdict = self.freshness.check(now_ns * 1e-9)
+        if verdict.reason is not None:
+            if verdict.became_stale:
+                self.get_logger().warning(f"{verdict.reason}: zero command",
+                                          throttle_duration_sec=1.0)
                 self.controller.reset()
-            self._stale = True
             self.zero_cycles += 1
             self.publish_zero()
             return
-        self._stale = False
         q = np.concatenate([self.base_q, self.arm_q])
         try:
             result = self.controller.step(q, self.contacts)
