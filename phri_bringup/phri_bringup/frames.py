@@ -78,8 +78,3 @@ class RobotFrames:
         b = self.model.body(link).id
         return (np.asarray(self.data.xmat[b].reshape(3, 3), dtype=np.float64),
                 np.asarray(self.data.xpos[b], dtype=np.float64))
-
-
-def yaw_from_quaternion(w: float, x: float, y: float, z: float) -> float:
-    """Yaw [rad] of a quaternion (rotation about z of a planar pose)."""
-    return float(np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)))

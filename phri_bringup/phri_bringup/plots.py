@@ -21,7 +21,6 @@ codecs) into numpy series;
 from __future__ import annotations
 
 import json
-import math
 from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,6 +31,7 @@ from numpy.typing import NDArray
 
 from phri_bringup.graph import ARMS, CONTROLLER, SKIN_LINKS
 from phri_bringup.recording import find_recording, ros_type
+from phri_common.planar import yaw_from_quaternion
 
 FloatArray = NDArray[np.float64]
 
@@ -122,7 +122,7 @@ def read_run(path: str | Path) -> RunData:
                 rows["cmd_vel"].append((t, [msg.linear.x, msg.linear.y, msg.angular.z]))
             elif topic == "/odom":
                 p, q, tw = msg.pose.pose.position, msg.pose.pose.orientation, msg.twist.twist
-                yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y ** 2 + q.z ** 2))
+                yaw = yaw_from_quaternion(q.w, q.x, q.y, q.z)
                 rows["odom"].append((t, [p.x, p.y, yaw, tw.linear.x, tw.linear.y, tw.angular.z]))
     for link in SKIN_LINKS:
         data.force[link] = Series.of(rows["force/" + link], 3)

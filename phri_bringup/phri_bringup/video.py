@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from phri_bringup.graph import SKIN_LINKS
 from phri_bringup.recording import find_recording, ros_type
+from phri_common.planar import yaw_from_quaternion
 
 FloatArray = NDArray[np.float64]
 
@@ -71,8 +72,7 @@ def _read_tracks(path: Path) -> dict[str, _Track]:
                 value = (list(msg.name), list(msg.position))
             elif conn.topic == "/odom":
                 p, q = msg.pose.pose.position, msg.pose.pose.orientation
-                yaw = float(np.arctan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y**2 + q.z**2)))
-                value = (p.x, p.y, yaw)
+                value = (p.x, p.y, yaw_from_quaternion(q.w, q.x, q.y, q.z))
             elif conn.topic == "/sim/person/poses":
                 value = [((p.position.x, p.position.y, p.position.z),
                           (p.orientation.w, p.orientation.x, p.orientation.y, p.orientation.z))

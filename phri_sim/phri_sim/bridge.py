@@ -15,7 +15,6 @@ Interface, parameters and ground-truth topics: ``docs/phri_sim.md``.
 
 from __future__ import annotations
 
-import math
 import sys
 from typing import Any
 
@@ -39,6 +38,7 @@ from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Float64MultiArray, Header
 
 from phri_common.params import ParamSpec, ParamValue
+from phri_common.planar import quaternion_from_yaw
 from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
 from phri_common.taxels import TaxelCloudEncoder
@@ -97,7 +97,8 @@ def _check_divides(step: float, periods: dict[str, float]) -> None:
 
 def yaw_quaternion(yaw: float) -> Quaternion:
     """Quaternion of a rotation about z by ``yaw`` [rad]."""
-    return Quaternion(w=math.cos(0.5 * yaw), x=0.0, y=0.0, z=math.sin(0.5 * yaw))
+    w, x, y, z = quaternion_from_yaw(yaw)
+    return Quaternion(w=w, x=x, y=y, z=z)
 
 
 def joint_state_msg(names: tuple[str, ...], q: np.ndarray, qd: np.ndarray, stamp_ns: int
