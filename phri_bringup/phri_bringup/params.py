@@ -6,9 +6,9 @@ one for the real robot (``real``). Each holds a ``<node>: ros__parameters:`` sec
 same sections into the in-process nodes.
 
 The scenario files are generated from :data:`phri_sim.scenarios.SCENARIOS` (the paper's Table II
-and Section VI values, design §6) by ``phri params --write``; ``phri params --check`` (and the
-tests) fail when a file drifts from those values or holds a key a node does not declare or a value
-its :class:`~phri_common.params.ParamSpec` refuses.
+and Section VI values of :mod:`phri_common.paper`, design §6) by ``phri params --write``;
+``phri params --check`` (and the tests) fail when a file drifts from those values or holds a key a
+node does not declare or a value its :class:`~phri_common.params.ParamSpec` refuses.
 """
 
 from __future__ import annotations
@@ -24,9 +24,11 @@ from phri_bringup.graph import (
     BRIDGE,
     CONTROLLER,
     ESTIMATION,
+    REAL_SKIN_PORTS,
     SCENARIO_FILES,
     config_file,
 )
+from phri_common import paper
 from phri_common.params import ParameterValueError, ParamSpec
 
 NodeParameters = dict[str, dict[str, Any]]
@@ -36,7 +38,7 @@ REAL_CONTROLLER_BASE = "whole_body"
 """The real robot starts with the whole-body pHRI set (Fig. 8): every link yields to touch."""
 
 ESTIMATION_DEFAULTS: dict[str, Any] = {
-    "torque_limit": [math.inf, math.inf, 1.2],
+    "torque_limit": list(paper.TORQUE_LIMIT),
     "publish_markers": True,
 }
 """Contact estimation in every file: the paper's torque limit τ(2) ≤ 1.2 (Sec. VI-A.1) and rviz /
@@ -78,8 +80,7 @@ def real_parameters() -> NodeParameters:
 
     sc = SCENARIOS[REAL_CONTROLLER_BASE]
     return {
-        "skin_driver_left": {"filter_window": 10},
-        "skin_driver_right": {"filter_window": 10},
+        **{driver: {"filter_window": paper.FILTER_WINDOW} for driver in REAL_SKIN_PORTS},
         ESTIMATION: dict(ESTIMATION_DEFAULTS),
         CONTROLLER: {k: _plain(v) for k, v in sc.controller_parameters.items()},
     }

@@ -31,13 +31,15 @@ from numpy.typing import NDArray
 
 from phri_bringup.graph import ARMS, CONTROLLER, SKIN_LINKS
 from phri_bringup.recording import find_recording, ros_type
+from phri_common import paper
 from phri_common.planar import yaw_from_quaternion
+from phri_sim.scenarios import WALTZ_LINK
 
 FloatArray = NDArray[np.float64]
 
-VELOCITY_LIMIT = 0.15
+VELOCITY_LIMIT = paper.VELOCITY_LIMIT
 """Table II joint speed bound [rad/s, m/s], drawn on the velocity panels."""
-WALTZ_FORCE = 10.0
+WALTZ_FORCE = paper.WALTZ_DESIRED_FORCE
 """Desired waist force of the waltz [N] (Sec. VI-B)."""
 
 
@@ -272,7 +274,7 @@ def make_plots(recording: str | Path, out_dir: str | Path, scenario: str | None 
 
     numbers = key_numbers(data)
     if scenario is None:
-        share = numbers["links"]["left_forearm_link"]["contact_share"]
+        share = numbers["links"][WALTZ_LINK]["contact_share"]
         scenario = "waltz" if len(data.torso.t) and numbers.get("torso_travel", 0.0) > 0.1 \
             and share > 0.2 else ""
     if scenario == "waltz":
@@ -299,13 +301,13 @@ def _waltz_panels(data: RunData, out: Path, numbers: dict[str, Any]) -> list[Pat
     ax.set_title("Waltz: the torso leads, the base follows (Fig. 1)")
     files = [_save(fig, out / "waltz_path.png")]
 
-    link = "left_forearm_link"
+    link = WALTZ_LINK
     f = _norm(data.force[link])
     fig, axes = _figure(1, "Waltz: waist contact force on the left forearm")
     axes[0].plot(data.force[link].t, f, label="estimated ‖f_η‖")
     if len(data.true_force[link].t):
         axes[0].plot(data.true_force[link].t, _norm(data.true_force[link]), "--", label="true")
-    axes[0].axhline(WALTZ_FORCE, color="k", linestyle=":", label="desired 10 N")
+    axes[0].axhline(WALTZ_FORCE, color="k", linestyle=":", label=f"desired {WALTZ_FORCE:g} N")
     axes[0].set_ylabel("[N]")
     axes[0].set_xlabel("time [s]")
     axes[0].legend(fontsize=7)

@@ -38,6 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from phri_common.contact import ContactState
+from phri_sim.scenarios import WALTZ_LINK
 from phri_sim.sim import Simulation
 
 FloatArray = NDArray[np.float64]
@@ -47,7 +48,6 @@ POSITION_TOLERANCE = 0.01
 VELOCITY_TOLERANCE = 1e-6
 SETTLE_TIME = 0.3
 """Samples this soon after a touch begins are not scored (filter and footprint build-up) [s]."""
-WALTZ_LINK = "left_forearm_link"
 
 
 @dataclass

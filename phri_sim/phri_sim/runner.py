@@ -43,9 +43,10 @@ from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Float64MultiArray
 
 from phri_common.contact import ContactMessageError, ContactState, msg_to_contact
+from phri_description.description import SKIN_LINKS
 from phri_sim.bridge import SimBridgeNode
 from phri_sim.metrics import MetricsRecorder
-from phri_sim.scenarios import SCENARIOS, SKIN_LINKS
+from phri_sim.scenarios import SCENARIOS
 
 Recorder = Callable[[Context], Node]
 Progress = Callable[[float, float], None]
