@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 from phri_bringup.graph import SKIN_LINKS
 from phri_bringup.recording import find_recording, ros_type
 from phri_common.planar import yaw_from_quaternion
+from phri_description.description import BASE_JOINTS
 
 FloatArray = NDArray[np.float64]
 
@@ -156,7 +157,7 @@ def render_video(
                         data.qpos[joint_adr[name]] = value
             base = tracks["/odom"].at(t) if "/odom" in tracks else None
             if base is not None:
-                for name, value in zip(("base_x", "base_y", "base_yaw"), base, strict=True):  # type: ignore[call-overload]
+                for name, value in zip(BASE_JOINTS, base, strict=True):  # type: ignore[call-overload]
                     data.qpos[joint_adr[name]] = value
             poses = tracks["/sim/person/poses"].at(t) if "/sim/person/poses" in tracks else None
             if poses is not None:
@@ -165,8 +166,8 @@ def render_video(
                     data.qpos[adr + 3:adr + 7] = quat
             mujoco.mj_kinematics(model, data)
             # Look between the base and the arms' workspace in front of it (the partner).
-            target = np.array([data.qpos[joint_adr["base_x"]] + 0.3,
-                               data.qpos[joint_adr["base_y"]] + 0.1, 0.9])
+            target = np.array([data.qpos[joint_adr[BASE_JOINTS[0]]] + 0.3,
+                               data.qpos[joint_adr[BASE_JOINTS[1]]] + 0.1, 0.9])
             # Follow the base smoothly so the couple stays in view without jitter.
             lookat = target if lookat is None else lookat + 0.05 * (target - lookat)
             camera.lookat[:] = lookat
