@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from phri_common import paper
 from phri_common.contact import ContactState
 from phri_sim.scenarios import WALTZ_LINK
 from phri_sim.sim import Simulation
@@ -62,7 +63,7 @@ class _LinkSeries:
 class MetricsRecorder:
     """Collects one sample per control period (module docstring)."""
 
-    def __init__(self, kind: str, velocity_limit: float = 0.15,
+    def __init__(self, kind: str, velocity_limit: float = paper.VELOCITY_LIMIT,
                  position_ranges: FloatArray | None = None) -> None:
         self.kind = kind
         self.velocity_limit = velocity_limit
