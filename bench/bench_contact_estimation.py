@@ -19,6 +19,7 @@ import numpy as np
 
 from contact_estimation.estimator import ContactEstimator, EstimatorConfig
 from phri_common.taxels import TaxelCloudEncoder, msg_to_taxels
+from phri_description.description import SKIN_LINKS
 from skin_driver.layout import TAXEL_PITCH, cylindrical_patch
 
 
@@ -86,11 +87,10 @@ def main() -> None:
         print(f"{f'1 link × {n:,} taxels':<44}{med:>10.1f}{p99:>10.1f}")
 
     for n in (2_000, 10_000):
-        links = ("left_upper_arm_link", "left_forearm_link", "right_forearm_link")
-        est = ContactEstimator({f"p{i}": link for i, link in enumerate(links)}, config)
+        est = ContactEstimator({f"p{i}": link for i, link in enumerate(SKIN_LINKS)}, config)
         msgs = []
         frames = []
-        for i, link in enumerate(links):
+        for i, link in enumerate(SKIN_LINKS):
             pos, nrm = cylinder_patch(n)
             forces = pressed_forces(n, args.contact_fraction, rng)
             msg = TaxelCloudEncoder(pos, nrm, link).encode(forces, 0)

@@ -28,9 +28,9 @@ from bench.bench_contact_estimation import cylinder_patch, pressed_forces
 from phri_common.stamps import stamp_to_ns
 from phri_common.taxels import TaxelCloudEncoder
 from phri_common.testing import isolate_ros_environment
+from phri_description.description import SKIN_LINKS, SKIN_PATCHES
 
-PATCHES = {"left_upper_arm": "left_upper_arm_link", "left_forearm": "left_forearm_link",
-           "right_forearm": "right_forearm_link"}
+PATCHES = dict(zip(SKIN_PATCHES, SKIN_LINKS, strict=True))
 
 
 def cpu_seconds(pid: int) -> float:

@@ -177,7 +177,7 @@ def controller_cases(repeats: int) -> dict[str, Case]:
     def tasks(k: int) -> None:
         contacts = contact_seq[k]
         for task, (rot, pos) in zip(ctl.tasks, poses, strict=True):
-            task.step(contacts[task.config.link], rot, pos, 1.0, 0.0)
+            task.step(contacts[task.config.link], rot, pos, 0.0)
 
     cases["    3 tasks: (10)-(20) + Algorithm 1"] = tasks
     target = np.concatenate([t.target for t in res.tasks])

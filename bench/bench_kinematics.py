@@ -9,9 +9,10 @@ import time
 
 import numpy as np
 
+from phri_description.description import SKIN_LINKS
 from wholebody_controller.kinematics import RobotKinematics
 
-LINKS = ("left_upper_arm_link", "left_forearm_link", "right_forearm_link")
+LINKS = SKIN_LINKS
 
 
 def main(iterations: int = 20000) -> None:

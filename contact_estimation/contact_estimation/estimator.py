@@ -38,12 +38,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from phri_common import paper
 from phri_common.records import ContactState, TaxelArray
 
 FloatArray = NDArray[np.floating]
 
-PAPER_TORQUE_LIMIT = (math.inf, math.inf, 1.2)
-"""The paper limits the estimated torque's third component to 1.2 N·m (Sec. VI-A-1)."""
+PAPER_TORQUE_LIMIT = paper.TORQUE_LIMIT
+"""The paper limits the estimated torque's third component to 1.2 N·m (Sec. VI-A.1)."""
 
 
 class InvalidTaxelData(ValueError):

@@ -41,9 +41,12 @@ from phri_common.params import ParamSpec, ParamValue
 from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
 from phri_common.taxels import TaxelMessageError, msg_to_taxels
+from phri_description.description import SKIN_LINKS, SKIN_PATCHES
 
-DEFAULT_PATCHES = ["left_upper_arm", "left_forearm", "right_forearm"]
-DEFAULT_PATCH_LINKS = ["left_upper_arm_link", "left_forearm_link", "right_forearm_link"]
+DEFAULT_PATCHES = list(SKIN_PATCHES)
+"""The robot description's skin patches."""
+DEFAULT_PATCH_LINKS = list(SKIN_LINKS)
+"""The links that carry them (same order)."""
 
 PARAMS: list[ParamSpec] = [
     ParamSpec("patches", DEFAULT_PATCHES, "skin patch names; patch P is read from "

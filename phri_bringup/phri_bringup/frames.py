@@ -14,6 +14,8 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
+from phri_description.description import BASE_JOINTS
+
 FloatArray = NDArray[np.float64]
 
 WORLD_FRAME = "odom"
@@ -52,7 +54,7 @@ class RobotFrames:
             if adr is not None and np.isfinite(value):
                 self.data.qpos[adr] = float(value)
         if base is not None:
-            for name, value in zip(("base_x", "base_y", "base_yaw"), base, strict=True):
+            for name, value in zip(BASE_JOINTS, base, strict=True):
                 if np.isfinite(value):
                     self.data.qpos[self.joint_qpos[name]] = float(value)
 
@@ -78,8 +80,3 @@ class RobotFrames:
         b = self.model.body(link).id
         return (np.asarray(self.data.xmat[b].reshape(3, 3), dtype=np.float64),
                 np.asarray(self.data.xpos[b], dtype=np.float64))
-
-
-def yaw_from_quaternion(w: float, x: float, y: float, z: float) -> float:
-    """Yaw [rad] of a quaternion (rotation about z of a planar pose)."""
-    return float(np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)))

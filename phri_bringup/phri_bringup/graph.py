@@ -22,6 +22,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from phri_description.description import SIDES, SKIN_LINKS, SKIN_PATCHES
+
 PACKAGE = "phri_bringup"
 
 SCENARIO_ALIASES: dict[str, str] = {
@@ -44,11 +46,10 @@ SCENARIO_FILES: dict[str, str] = {
 }
 """phri_sim scenario name → parameter file stem in ``config/``."""
 
-PATCHES: tuple[str, ...] = ("left_upper_arm", "left_forearm", "right_forearm")
-"""Skin patches, in description order."""
-SKIN_LINKS: tuple[str, ...] = ("left_upper_arm_link", "left_forearm_link", "right_forearm_link")
-"""Links with skin (one contact state each)."""
-ARMS: tuple[str, ...] = ("left", "right")
+PATCHES: tuple[str, ...] = SKIN_PATCHES
+"""Skin patches, in description order; :data:`SKIN_LINKS` (imported from the robot description)
+are the links that carry them (one contact state each)."""
+ARMS: tuple[str, ...] = SIDES
 
 BRIDGE = "phri_sim"
 ESTIMATION = "contact_estimation"
@@ -170,8 +171,8 @@ def rviz_node() -> NodeSpec:
 
 
 REAL_SKIN_PORTS: dict[str, tuple[str, tuple[str, ...]]] = {
-    "skin_driver_left": ("/dev/ttyACM0", ("left_upper_arm", "left_forearm")),
-    "skin_driver_right": ("/dev/ttyACM1", ("right_forearm",)),
+    f"skin_driver_{side}": (port, tuple(p for p in SKIN_PATCHES if p.startswith(f"{side}_")))
+    for side, port in zip(SIDES, ("/dev/ttyACM0", "/dev/ttyACM1"), strict=True)
 }
 """Real skin wiring: driver node → (default port, patches on that port in board-id order)."""
 

@@ -21,9 +21,10 @@ from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
-from phri_bringup.frames import RobotFrames, yaw_from_quaternion
+from phri_bringup.frames import RobotFrames
 from phri_bringup.graph import ARMS, SIM_TOPICS, TF_TOPIC, TopicSpec
 from phri_bringup.recording import McapRecording, encode, ros_type, stamp_ns_of, tf_message
+from phri_common.planar import yaw_from_quaternion
 
 COMMAND_TOPICS: dict[str, type[Any]] = {
     "/cmd_vel": Twist,

@@ -21,7 +21,6 @@ codecs) into numpy series;
 from __future__ import annotations
 
 import json
-import math
 from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,12 +31,15 @@ from numpy.typing import NDArray
 
 from phri_bringup.graph import ARMS, CONTROLLER, SKIN_LINKS
 from phri_bringup.recording import find_recording, ros_type
+from phri_common import paper
+from phri_common.planar import yaw_from_quaternion
+from phri_sim.scenarios import WALTZ_LINK
 
 FloatArray = NDArray[np.float64]
 
-VELOCITY_LIMIT = 0.15
+VELOCITY_LIMIT = paper.VELOCITY_LIMIT
 """Table II joint speed bound [rad/s, m/s], drawn on the velocity panels."""
-WALTZ_FORCE = 10.0
+WALTZ_FORCE = paper.WALTZ_DESIRED_FORCE
 """Desired waist force of the waltz [N] (Sec. VI-B)."""
 
 
@@ -122,7 +124,7 @@ def read_run(path: str | Path) -> RunData:
                 rows["cmd_vel"].append((t, [msg.linear.x, msg.linear.y, msg.angular.z]))
             elif topic == "/odom":
                 p, q, tw = msg.pose.pose.position, msg.pose.pose.orientation, msg.twist.twist
-                yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y ** 2 + q.z ** 2))
+                yaw = yaw_from_quaternion(q.w, q.x, q.y, q.z)
                 rows["odom"].append((t, [p.x, p.y, yaw, tw.linear.x, tw.linear.y, tw.angular.z]))
     for link in SKIN_LINKS:
         data.force[link] = Series.of(rows["force/" + link], 3)
@@ -272,7 +274,7 @@ def make_plots(recording: str | Path, out_dir: str | Path, scenario: str | None 
 
     numbers = key_numbers(data)
     if scenario is None:
-        share = numbers["links"]["left_forearm_link"]["contact_share"]
+        share = numbers["links"][WALTZ_LINK]["contact_share"]
         scenario = "waltz" if len(data.torso.t) and numbers.get("torso_travel", 0.0) > 0.1 \
             and share > 0.2 else ""
     if scenario == "waltz":
@@ -299,13 +301,13 @@ def _waltz_panels(data: RunData, out: Path, numbers: dict[str, Any]) -> list[Pat
     ax.set_title("Waltz: the torso leads, the base follows (Fig. 1)")
     files = [_save(fig, out / "waltz_path.png")]
 
-    link = "left_forearm_link"
+    link = WALTZ_LINK
     f = _norm(data.force[link])
     fig, axes = _figure(1, "Waltz: waist contact force on the left forearm")
     axes[0].plot(data.force[link].t, f, label="estimated ‖f_η‖")
     if len(data.true_force[link].t):
         axes[0].plot(data.true_force[link].t, _norm(data.true_force[link]), "--", label="true")
-    axes[0].axhline(WALTZ_FORCE, color="k", linestyle=":", label="desired 10 N")
+    axes[0].axhline(WALTZ_FORCE, color="k", linestyle=":", label=f"desired {WALTZ_FORCE:g} N")
     axes[0].set_ylabel("[N]")
     axes[0].set_xlabel("time [s]")
     axes[0].legend(fontsize=7)

@@ -20,6 +20,8 @@ from numpy.typing import NDArray
 
 from phri_bringup.graph import SKIN_LINKS
 from phri_bringup.recording import find_recording, ros_type
+from phri_common.planar import yaw_from_quaternion
+from phri_description.description import BASE_JOINTS
 
 FloatArray = NDArray[np.float64]
 
@@ -71,8 +73,7 @@ def _read_tracks(path: Path) -> dict[str, _Track]:
                 value = (list(msg.name), list(msg.position))
             elif conn.topic == "/odom":
                 p, q = msg.pose.pose.position, msg.pose.pose.orientation
-                yaw = float(np.arctan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y**2 + q.z**2)))
-                value = (p.x, p.y, yaw)
+                value = (p.x, p.y, yaw_from_quaternion(q.w, q.x, q.y, q.z))
             elif conn.topic == "/sim/person/poses":
                 value = [((p.position.x, p.position.y, p.position.z),
                           (p.orientation.w, p.orientation.x, p.orientation.y, p.orientation.z))
@@ -156,7 +157,7 @@ def render_video(
                         data.qpos[joint_adr[name]] = value
             base = tracks["/odom"].at(t) if "/odom" in tracks else None
             if base is not None:
-                for name, value in zip(("base_x", "base_y", "base_yaw"), base, strict=True):  # type: ignore[call-overload]
+                for name, value in zip(BASE_JOINTS, base, strict=True):  # type: ignore[call-overload]
                     data.qpos[joint_adr[name]] = value
             poses = tracks["/sim/person/poses"].at(t) if "/sim/person/poses" in tracks else None
             if poses is not None:
@@ -165,8 +166,8 @@ def render_video(
                     data.qpos[adr + 3:adr + 7] = quat
             mujoco.mj_kinematics(model, data)
             # Look between the base and the arms' workspace in front of it (the partner).
-            target = np.array([data.qpos[joint_adr["base_x"]] + 0.3,
-                               data.qpos[joint_adr["base_y"]] + 0.1, 0.9])
+            target = np.array([data.qpos[joint_adr[BASE_JOINTS[0]]] + 0.3,
+                               data.qpos[joint_adr[BASE_JOINTS[1]]] + 0.1, 0.9])
             # Follow the base smoothly so the couple stays in view without jitter.
             lookat = target if lookat is None else lookat + 0.05 * (target - lookat)
             camera.lookat[:] = lookat

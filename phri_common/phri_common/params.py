@@ -3,7 +3,9 @@
 Each node describes its parameters once as :class:`ParamSpec` objects: name, default, unit, range
 and description. The same list declares the ROS parameters with descriptors
 (:mod:`phri_common.ros_params`), validates every value set at start-up or at run time, and renders
-the parameter tables in ``docs/interfaces.md`` (a test checks the docs agree with the code).
+the parameter table of each node's page in ``docs/`` (:func:`markdown_table`); each package's
+docs test compares the page's table, row by row and cell by cell, with the rendered one
+(:func:`table_in` finds it).
 """
 
 from __future__ import annotations
@@ -108,12 +110,22 @@ class ParamSpec:
         )
 
 
+TABLE_HEADER = (
+    "| parameter | type | unit | default | range | description |",
+    "|---|---|---|---|---|---|",
+)
+"""The first two lines of every parameter table."""
+
+
+def _cell(text: str) -> str:
+    """Markdown table cell text: a literal ``|`` (as in ``|q̇|``) escaped so it does not split
+    the cell."""
+    return text.replace("|", "\\|")
+
+
 def markdown_table(specs: Sequence[ParamSpec]) -> str:
     """Render specs as a Markdown table (name, type, unit, default, range, description)."""
-    rows = [
-        "| parameter | type | unit | default | range | description |",
-        "|---|---|---|---|---|---|",
-    ]
+    rows = list(TABLE_HEADER)
     for spec in specs:
         kind = type(spec.default).__name__
         if spec.is_array:
@@ -122,7 +134,22 @@ def markdown_table(specs: Sequence[ParamSpec]) -> str:
             kind = f"{elem}[]"
         ro = " (read-only)" if spec.read_only else ""
         rows.append(
-            f"| `{spec.name}` | {kind} | {spec.unit} | `{spec.default!r}` | {spec.range_text()} "
-            f"| {spec.description}{ro} |"
+            f"| `{spec.name}` | {kind} | {_cell(spec.unit)} | `{spec.default!r}` "
+            f"| {spec.range_text()} | {_cell(spec.description)}{ro} |"
         )
     return "\n".join(rows)
+
+
+def table_in(markdown: str, first_parameter: str) -> str:
+    """The parameter table of a Markdown page whose first row documents ``first_parameter``:
+    its header, rule and every row up to the first line that is not a table row, joined as
+    :func:`markdown_table` joins them; ``""`` when the page has no such table."""
+    lines = markdown.splitlines()
+    first = f"| `{first_parameter}` |"
+    for i in range(len(lines) - 2):
+        if tuple(lines[i:i + 2]) == TABLE_HEADER and lines[i + 2].startswith(first):
+            end = i + 2
+            while end < len(lines) and lines[end].startswith("|"):
+                end += 1
+            return "\n".join(lines[i:end])
+    return ""

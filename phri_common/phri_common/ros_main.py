@@ -2,7 +2,7 @@
 
 Why not ``rclpy.experimental.events_executor.EventsExecutor``: with rclpy 9.1 (Kilted wheels) its
 ``spin()`` busy-loops at ~96 % of a core as soon as a node owns a timer, and it ignores SIGINT and
-SIGTERM (measured; see docs/interfaces.md "Executors"). A node that cannot be stopped with Ctrl-C
+SIGTERM (measured; see docs/skin_driver.md "Executor"). A node that cannot be stopped with Ctrl-C
 cannot send its final zero command, so every phri process uses the single-threaded executor with
 an explicit stop flag set from the signal handlers.
 """

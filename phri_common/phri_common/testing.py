@@ -6,12 +6,16 @@ localhost, so parallel test runs on one machine never hear each other (design §
 
 from __future__ import annotations
 
+import difflib
 import os
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
+from pathlib import Path
 
 import pytest
+
+from phri_common.params import ParamSpec, markdown_table, table_in
 
 
 def isolated_domain_id() -> int:
@@ -59,3 +63,16 @@ def spin_until(
             return True
         executor.spin_once(timeout_sec=step_s)  # type: ignore[attr-defined]
     return condition()
+
+
+def assert_parameter_table(doc: Path, specs: Sequence[ParamSpec]) -> None:
+    """Fail unless ``doc`` holds exactly the parameter table of ``specs``: every row (name, type,
+    unit, default, range, description) equal to :func:`~phri_common.params.markdown_table`'s, in
+    the same order, with no row missing or left over. The message is a diff (- docs, + code)."""
+    expected = markdown_table(specs)
+    found = table_in(doc.read_text(encoding="utf-8"), specs[0].name)
+    if found != expected:
+        diff = "\n".join(difflib.unified_diff(found.splitlines(), expected.splitlines(),
+                                               "docs", "code", lineterm="", n=0))
+        pytest.fail(f"{doc.name}: the parameter table differs from the code "
+                    f"(- docs, + code):\n{diff}")

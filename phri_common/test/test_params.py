@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from phri_common.params import ParameterValueError, ParamSpec, markdown_table
+from phri_common.params import ParameterValueError, ParamSpec, markdown_table, table_in
 
 
 def test_in_range_value_is_accepted() -> None:
@@ -35,3 +35,23 @@ def test_markdown_table_lists_every_parameter() -> None:
     specs = [ParamSpec("a", 1.0, "first", unit="m", low=0.0), ParamSpec("b", ["x"], "second")]
     table = markdown_table(specs)
     assert "`a`" in table and "`b`" in table and "| m |" in table
+
+
+def test_markdown_table_escapes_pipes_inside_cells() -> None:
+    table = markdown_table([ParamSpec("v", 0.15, "bound on |q̇|", unit="rad/s")])
+    row = table.splitlines()[2]
+    assert "\\|q̇\\|" in row
+    # Six cells: the unescaped separators alone split the row.
+    assert len(row.replace("\\|", "").strip("|").split("|")) == 6
+
+
+def test_table_in_returns_the_whole_table_and_nothing_else() -> None:
+    specs = [ParamSpec("a", 1.0, "first", unit="m", low=0.0), ParamSpec("b", 2, "second")]
+    table = markdown_table(specs)
+    other = "| other | table |\n|---|---|\n| x | y |"
+    page = f"# Page\n\n{other}\n\n{table}\n| `c` | stale |\n\nText\n"
+    found = table_in(page, "a")
+    assert found.splitlines()[:4] == table.splitlines()
+    assert found.splitlines()[4] == "| `c` | stale |"  # a left-over row is part of the table
+    assert table_in(page, "b") == ""  # b is not the first row of any table
+    assert table_in("no tables here", "a") == ""

@@ -615,5 +615,8 @@ def robot_description() -> RobotDescription:
 
 
 ARM_LINK_NAMES: tuple[str, ...] = tuple(f"{s}_{n}" for s in SIDES for n in UR_LINKS)
-SKIN_LINKS: tuple[str, ...] = ("left_upper_arm_link", "left_forearm_link", "right_forearm_link")
-"""The links carrying skin, in patch order."""
+SKIN_PATCHES: tuple[str, ...] = tuple(p.name for p in skin_patches())
+"""The skin patch names (``left_upper_arm``, ``left_forearm``, ``right_forearm``): the names of
+their taxel topics ``skin/<patch>/taxels`` and layout files."""
+SKIN_LINKS: tuple[str, ...] = tuple(p.link for p in skin_patches())
+"""The links carrying skin, in patch order (``SKIN_LINKS[i]`` carries ``SKIN_PATCHES[i]``)."""

@@ -9,7 +9,12 @@ import mujoco
 import numpy as np
 import pytest
 
-from phri_description.description import JOINT_NAMES, SKIN_LINKS, robot_description
+from phri_description.description import (
+    JOINT_NAMES,
+    SKIN_LINKS,
+    SKIN_PATCHES,
+    robot_description,
+)
 from phri_description.mujoco_model import build_model
 from phri_description.urdf_writer import (
     PATCHES_PATH,
@@ -138,8 +143,11 @@ def test_mujoco_joint_ranges_are_radians() -> None:
 
 
 def test_skin_patches_are_on_the_three_skin_links() -> None:
+    """Paper III-A: skin on two links of the left arm and one of the right (names typed here)."""
+    assert SKIN_PATCHES == ("left_upper_arm", "left_forearm", "right_forearm")
+    assert SKIN_LINKS == ("left_upper_arm_link", "left_forearm_link", "right_forearm_link")
     patches = robot_description().patches
-    assert sorted(p.link for p in patches) == sorted(SKIN_LINKS)
+    assert [(p.name, p.link) for p in patches] == list(zip(SKIN_PATCHES, SKIN_LINKS, strict=True))
 
 
 def test_checked_in_patch_yaml_is_the_generated_one_and_round_trips() -> None:

@@ -16,6 +16,8 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+from phri_common import paper
+
 PlanarTwist = tuple[float, float, float]
 """(v_x [m/s], v_y [m/s], ω_z [rad/s]) in the base frame."""
 
@@ -24,12 +26,13 @@ ZERO: PlanarTwist = (0.0, 0.0, 0.0)
 
 @dataclass(frozen=True)
 class BaseGuardConfig:
-    """Limits [m/s, rad/s] and staleness timeout [s] (ranges: ``base_guard_node.PARAMS``)."""
+    """Limits [m/s, rad/s] and staleness timeout [s] (ranges: ``base_guard_node.PARAMS``); the
+    per-axis defaults are the paper's Table II bound (:data:`phri_common.paper.VELOCITY_LIMIT`)."""
 
-    max_linear_x: float = 0.15
-    max_linear_y: float = 0.15
+    max_linear_x: float = paper.VELOCITY_LIMIT
+    max_linear_y: float = paper.VELOCITY_LIMIT
     max_planar_speed: float = 0.2
-    max_angular_z: float = 0.15
+    max_angular_z: float = paper.VELOCITY_LIMIT
     command_timeout: float = 0.1
 
     def __post_init__(self) -> None:

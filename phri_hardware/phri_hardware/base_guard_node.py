@@ -22,6 +22,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Twist, TwistStamped
 from rclpy.node import Node
 
+from phri_common import paper
 from phri_common.params import ParamSpec, ParamValue
 from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
@@ -29,14 +30,14 @@ from phri_hardware.base_guard import BaseGuard, BaseGuardConfig, PlanarTwist
 from phri_hardware.messages import planar_twist, planar_twist_stamped, twist_to_tuple
 
 PARAMS: list[ParamSpec] = [
-    ParamSpec("max_linear_x", 0.15, "largest forward speed |v_x| (Table II: 0.15)", unit="m/s",
+    ParamSpec("max_linear_x", paper.VELOCITY_LIMIT, "largest forward speed |v_x| (Table II: 0.15)",
+              unit="m/s", low=0.0, high=3.0),
+    ParamSpec("max_linear_y", paper.VELOCITY_LIMIT, "largest sideways speed |v_y|", unit="m/s",
               low=0.0, high=3.0),
-    ParamSpec("max_linear_y", 0.15, "largest sideways speed |v_y|", unit="m/s", low=0.0,
-              high=3.0),
     ParamSpec("max_planar_speed", 0.2, "largest planar speed ‖(v_x, v_y)‖", unit="m/s",
               low=0.0, high=3.0),
-    ParamSpec("max_angular_z", 0.15, "largest turn rate |ω_z|", unit="rad/s", low=0.0,
-              high=6.0),
+    ParamSpec("max_angular_z", paper.VELOCITY_LIMIT, "largest turn rate |ω_z|", unit="rad/s",
+              low=0.0, high=6.0),
     ParamSpec("command_timeout", 0.1, "no twist for this long → zero", unit="s", low=0.005,
               high=5.0),
     ParamSpec("check_rate_hz", 50.0, "rate of the staleness check (zero is sent at this rate "

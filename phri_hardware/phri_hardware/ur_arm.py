@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 from enum import Enum, IntEnum
 from typing import Protocol
 
+from phri_common import paper
 from phri_description.description import (
     UR16E_VELOCITY_LIMITS as _DESCRIPTION_UR16E_VELOCITY_LIMITS,
 )
@@ -163,7 +164,7 @@ class BridgeConfig:
         allow_reduced_safety: also move in the REDUCED safety mode.
     """
 
-    rate_hz: float = 100.0
+    rate_hz: float = paper.CONTROL_RATE_HZ
     command_timeout: float = 0.1
     acceleration: float = 2.0
     stop_deceleration: float = 4.0

@@ -25,6 +25,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
 
+from phri_common import paper
 from phri_common.params import ParamSpec, ParamValue
 from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
@@ -57,7 +58,8 @@ PARAMS: list[ParamSpec] = [
               "e-Series)", unit="Hz", low=-1.0, high=500.0, read_only=True),
     ParamSpec("joint_prefix", "", "prefix of the published joint names (left_ / right_)",
               read_only=True),
-    ParamSpec("rate_hz", 100.0, "speedJ and /joint_states rate (the controller rate)",
+    ParamSpec("rate_hz", paper.CONTROL_RATE_HZ,
+              "speedJ and /joint_states rate (the controller rate)",
               unit="Hz", low=1.0, high=500.0, read_only=True),
     ParamSpec("command_timeout", 0.1, "a command older than this is stale → speedStop",
               unit="s", low=0.002, high=2.0, read_only=True),

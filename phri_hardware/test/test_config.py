@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 import yaml
 
+from phri_common import paper
 from phri_common.params import ParamSpec
 from phri_hardware import base_guard_node, ur_arm_bridge_node
 from skin_driver import node as skin_driver_node
@@ -55,3 +56,16 @@ def test_skin_layouts_match_board_ids() -> None:
     for _, node, p in sections():
         if node.startswith("/skin_driver"):
             assert len(p["board_ids"]) == len(p["layout_files"]), node
+
+
+def test_hand_written_files_carry_the_single_source_values() -> None:
+    """These files are written by hand (comments, placeholders); the paper's values in them must
+    still be the ones of phri_common.paper (Table II bound, control rate, filter window)."""
+    for _, node, p in sections():
+        if node == "/base_guard":
+            for axis in ("max_linear_x", "max_linear_y", "max_angular_z"):
+                assert p[axis] == paper.VELOCITY_LIMIT, axis
+        elif node.endswith("/ur_arm_bridge"):
+            assert p["rate_hz"] == paper.CONTROL_RATE_HZ, node
+        elif node.startswith("/skin_driver"):
+            assert p["filter_window"] == paper.FILTER_WINDOW, node

@@ -15,7 +15,6 @@ Interface, parameters and ground-truth topics: ``docs/phri_sim.md``.
 
 from __future__ import annotations
 
-import math
 import sys
 from typing import Any
 
@@ -38,7 +37,9 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Float64MultiArray, Header
 
+from phri_common import paper
 from phri_common.params import ParamSpec, ParamValue
+from phri_common.planar import quaternion_from_yaw
 from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
 from phri_common.taxels import TaxelCloudEncoder
@@ -60,7 +61,8 @@ PARAMS: list[ParamSpec] = [
               "100 Hz skin)", unit="s", low=0.0005, high=0.005, read_only=True),
     ParamSpec("real_time_factor", 1.0, "free-running speed relative to the wall clock",
               low=0.01, high=100.0, read_only=True),
-    ParamSpec("skin_rate_hz", 500.0, "taxel-array publication rate (sim time)", unit="Hz",
+    ParamSpec("skin_rate_hz", paper.SKIN_RATE_HZ, "taxel-array publication rate (sim time)",
+              unit="Hz",
               low=1.0, high=500.0, read_only=True),
     ParamSpec("skin_idle_decimation", 1, "publish a patch nobody touches only every N-th skin "
               "frame (1 = every frame; the lock-step runner uses 10: an untouched patch's frame "
@@ -97,7 +99,8 @@ def _check_divides(step: float, periods: dict[str, float]) -> None:
 
 def yaw_quaternion(yaw: float) -> Quaternion:
     """Quaternion of a rotation about z by ``yaw`` [rad]."""
-    return Quaternion(w=math.cos(0.5 * yaw), x=0.0, y=0.0, z=math.sin(0.5 * yaw))
+    w, x, y, z = quaternion_from_yaw(yaw)
+    return Quaternion(w=w, x=x, y=y, z=z)
 
 
 def joint_state_msg(names: tuple[str, ...], q: np.ndarray, qd: np.ndarray, stamp_ns: int

@@ -37,7 +37,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from phri_common import paper
 from phri_common.records import ContactState
+from phri_sim.scenarios import WALTZ_LINK
 from phri_sim.sim import Simulation
 
 FloatArray = NDArray[np.float64]
@@ -47,7 +49,6 @@ POSITION_TOLERANCE = 0.01
 VELOCITY_TOLERANCE = 1e-6
 SETTLE_TIME = 0.3
 """Samples this soon after a touch begins are not scored (filter and footprint build-up) [s]."""
-WALTZ_LINK = "left_forearm_link"
 
 
 @dataclass
@@ -62,7 +63,7 @@ class _LinkSeries:
 class MetricsRecorder:
     """Collects one sample per control period (module docstring)."""
 
-    def __init__(self, kind: str, velocity_limit: float = 0.15,
+    def __init__(self, kind: str, velocity_limit: float = paper.VELOCITY_LIMIT,
                  position_ranges: FloatArray | None = None) -> None:
         self.kind = kind
         self.velocity_limit = velocity_limit

@@ -42,11 +42,13 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Float64MultiArray
 
+from phri_common import paper
 from phri_common.contact import ContactMessageError, msg_to_contact
 from phri_common.records import ContactState
+from phri_description.description import SKIN_LINKS
 from phri_sim.bridge import SimBridgeNode
 from phri_sim.metrics import MetricsRecorder
-from phri_sim.scenarios import SCENARIOS, SKIN_LINKS
+from phri_sim.scenarios import SCENARIOS
 
 Recorder = Callable[[Context], Node]
 Progress = Callable[[float, float], None]
@@ -186,9 +188,8 @@ class ScenarioRun:
             r = float(sc.controller_parameters["q_dance_range"])
             ranges = np.full((15, 2), [-np.inf, np.inf])
             ranges[3:, 0], ranges[3:, 1] = q - r, q + r
-        self.metrics = MetricsRecorder(
-            sc.metrics, float(sc.controller_parameters.get("velocity_limit", 0.15)), ranges
-        )
+        limit = float(sc.controller_parameters.get("velocity_limit", paper.VELOCITY_LIMIT))
+        self.metrics = MetricsRecorder(sc.metrics, limit, ranges)
         self._last_command = np.zeros(15)
         self._fresh_links: set[str] = set(SKIN_LINKS)
         self.wall_time = 0.0

@@ -2,11 +2,12 @@
 
 A :class:`Scenario` bundles what one experiment needs: the robot's start configuration, the
 controller parameters of the paper for that experiment (:attr:`Scenario.controller_parameters`,
-plain names and values the bringup can pass as ROS parameters or dump to YAML with
-:func:`parameters_yaml`), its length (and a shortened CI length), and a script that moves the
-person's spring targets over time. Scripts are functions of simulation time (the sliding hand
-also reads the robot's current link pose, as a person pressing follows the arm), so a scenario is
-deterministic for a seed (the seed drives only the skin noise).
+plain names and values, built from :mod:`phri_common.paper`; the bringup passes them as ROS
+parameters and generates ``phri_bringup/config/*.yaml`` from them), its length (and a shortened CI
+length), and a script that moves the person's spring targets over time. Scripts are functions
+of simulation time (the sliding hand also reads the robot's current link pose, as a person
+pressing follows the arm), so a scenario is deterministic for a seed (the seed drives only the
+skin noise).
 
 Scenarios (``SCENARIOS``):
 
@@ -29,7 +30,8 @@ Hands never jump between presses (:func:`hand_schedule`); the sliding hand keeps
 on the link's current surface.
 
 Table II values (q̇ ∈ [−0.15, 0.15], k_η = 200, b = 4, K_p = 5, ψ_thr = 1e-4, ε = 0.1, h = 0.15,
-100 Hz) are the controller's defaults and are repeated in every parameter set for clarity.
+100 Hz) are the controller's defaults and are repeated in every parameter set for clarity. Every
+value comes from :mod:`phri_common.paper`, the skin links from the robot description.
 """
 
 from __future__ import annotations
@@ -42,14 +44,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from phri_description.description import robot_description
+from phri_common import paper
+from phri_description.description import SKIN_LINKS, robot_description
 from phri_sim.person import HAND_RADIUS, TORSO, WAIST_RADIUS, PartTarget
 from phri_sim.sim import Simulation
 
 FloatArray = NDArray[np.float64]
 Script = Callable[[float], dict[str, PartTarget]]
-
-SKIN_LINKS: tuple[str, ...] = ("left_upper_arm_link", "left_forearm_link", "right_forearm_link")
 
 Q_LEFT_HOME: tuple[float, ...] = (0.0, -0.3, 0.3, 0.0, 0.0, 0.0)
 """Left arm start (and the waltz's q_dance): upper arm turned out, forearm parallel to the base
@@ -60,25 +61,25 @@ Q_HOME: tuple[float, ...] = (0.0, 0.0, 0.0, *Q_LEFT_HOME, *Q_RIGHT_HOME)
 """Start configuration q (15): base at the origin, arms at home."""
 
 TABLE_II: dict[str, Any] = {
-    "velocity_limit": 0.15,
-    "k_eta": 200.0,
-    "b": 4.0,
-    "k_p": 5.0,
-    "psi_thr": 1e-4,
-    "epsilon": 0.1,
-    "horizon": 0.15,
-    "rate_hz": 100.0,
+    "velocity_limit": paper.VELOCITY_LIMIT,
+    "k_eta": paper.K_ETA,
+    "b": paper.B,
+    "k_p": paper.K_P,
+    "psi_thr": paper.PSI_THR,
+    "epsilon": paper.EPSILON,
+    "horizon": paper.HORIZON,
+    "rate_hz": paper.CONTROL_RATE_HZ,
 }
 """The paper's Table II and Sec. VI settings (controller parameter names)."""
 
 
-def _admittance(inertia: list[float], damping: list[float], stiffness: list[float]
-                ) -> dict[str, Any]:
+def _admittance(gains: paper.Admittance) -> dict[str, Any]:
+    """The controller's per-link admittance parameters: ``gains`` on every skin link."""
     out: dict[str, Any] = {}
     for link in SKIN_LINKS:
-        out[f"{link}.inertia"] = list(inertia)
-        out[f"{link}.damping"] = list(damping)
-        out[f"{link}.stiffness"] = list(stiffness)
+        out[f"{link}.inertia"] = list(gains.inertia)
+        out[f"{link}.damping"] = list(gains.damping)
+        out[f"{link}.stiffness"] = list(gains.stiffness)
     return out
 
 
@@ -96,7 +97,6 @@ class Scenario:
         estimation_parameters: contact_estimation parameters.
         make_script: builds the person's script from the simulation at its start state.
         metrics: which metrics apply (``centring``, ``tracking``, ``whole_body``, ``waltz``).
-        estimation_parameters: contact_estimation parameters.
         settle: physics settling time before t = 0 with the robot held still, so contacts the
             script starts with are at rest (:meth:`Simulation.settle`) [s].
     """
@@ -401,8 +401,10 @@ Q_DANCE: tuple[float, ...] = (*Q_DANCE_LEFT, *Q_RIGHT_HOME)
 Q_WALTZ: tuple[float, ...] = (0.0, 0.0, 0.0, *Q_DANCE)
 """Waltz start configuration (15)."""
 
-WALTZ_FORCE = 10.0
+WALTZ_FORCE = paper.WALTZ_DESIRED_FORCE
 """The left forearm's desired force towards the waist (to the right in the base frame) [N]."""
+WALTZ_LINK = robot_description().patch("left_forearm").link
+"""The link that leads the waltz on the waist (VI-B: the left forearm)."""
 WALTZ_STEP = 0.10
 """Length of a box side [m]."""
 WALTZ_STEP_TIME = 5.5
@@ -510,21 +512,21 @@ def waltz_duration() -> float:
 
 # ---------------------------------------------------------------------------------------------
 
-CENTRING_PARAMS = {**TABLE_II, **_admittance([0.5] * 6, [40.0] * 6, [0.0] * 6)}
+CENTRING_PARAMS = {**TABLE_II, **_admittance(paper.CENTRING)}
 SLIDING_PARAMS = {
     **TABLE_II,
-    "region_margin": 0.01,
-    **_admittance([0.5] * 6, [40.0, 40.0, 500.0, 40.0, 40.0, 40.0], [0.0] * 6),
+    "region_margin": paper.REGION_MARGIN,
+    **_admittance(paper.TRACKING),
 }
-WHOLE_BODY_PARAMS = {**TABLE_II, **_admittance([0.5] * 6, [60.0] * 6, [40.0] * 6)}
+WHOLE_BODY_PARAMS = {**TABLE_II, **_admittance(paper.WHOLE_BODY)}
 WALTZ_PARAMS = {
     **TABLE_II,
-    **_admittance([0.1] * 6, [200.0] * 6, [0.0] * 6),
+    **_admittance(paper.WALTZ),
     "q_dance_enabled": True,
     "q_dance": list(Q_DANCE),
-    "q_dance_range": 0.1,
-    "left_forearm_link.priority_lock": 1.0,
-    "left_forearm_link.desired_force": [0.0, -WALTZ_FORCE, 0.0],
+    "q_dance_range": paper.Q_DANCE_HALF_WIDTH,
+    f"{WALTZ_LINK}.priority_lock": paper.WALTZ_PRIORITY_LOCK,
+    f"{WALTZ_LINK}.desired_force": [0.0, -WALTZ_FORCE, 0.0],
 }
 
 SCENARIOS: dict[str, Scenario] = {
@@ -532,7 +534,7 @@ SCENARIOS: dict[str, Scenario] = {
     for s in (
         Scenario("centring", "Fig. 6: even press, then presses on both sides of a link",
                  11.0, 11.0, Q_HOME, CENTRING_PARAMS, centring_script, "centring",
-                 {"torque_limit": [math.inf, math.inf, 1.2]}),
+                 {"torque_limit": list(paper.TORQUE_LIMIT)}),
         Scenario("sliding", "Fig. 7: press the middle of a link, slide forward and back",
                  16.0, 10.0, Q_HOME, SLIDING_PARAMS, sliding_script, "tracking"),
         Scenario("whole_body", "Fig. 8: periodic touches on the three skin links",
@@ -544,15 +546,3 @@ SCENARIOS: dict[str, Scenario] = {
     )
 }
 
-
-def parameters_yaml(name: str) -> str:
-    """ROS 2 parameter YAML (``/**: ros__parameters:``) of a scenario's controller and contact
-    estimation settings, for the bringup."""
-    import yaml
-
-    sc = SCENARIOS[name]
-    doc = {
-        "wholebody_controller": {"ros__parameters": dict(sc.controller_parameters)},
-        "contact_estimation": {"ros__parameters": dict(sc.estimation_parameters)},
-    }
-    return str(yaml.safe_dump(doc, sort_keys=False))

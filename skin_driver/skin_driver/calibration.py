@@ -27,6 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from phri_common import paper
+
 FloatArray = NDArray[np.float64]
 
 
@@ -57,7 +59,7 @@ class CalibrationConfig:
 
     default_gain: float = 0.0005
     default_offset: float = 1000.0
-    filter_window: int = 10
+    filter_window: int = paper.FILTER_WINDOW
     tare_frames: int = 100
     tare_max_shift: float = 0.5
     drift_time_constant: float = 60.0

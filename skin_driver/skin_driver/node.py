@@ -31,6 +31,7 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import PointCloud2
 from std_srvs.srv import Trigger
 
+from phri_common import paper
 from phri_common.params import ParameterValueError, ParamSpec, ParamValue
 from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
@@ -52,7 +53,8 @@ PARAMS: list[ParamSpec] = [
               "geometry, calibration), one per board id", min_length=1, read_only=True),
     ParamSpec("max_taxels", MAX_TAXELS, "largest taxel count the parser accepts in a frame "
               "header (bounds memory)", low=1, high=MAX_TAXELS, read_only=True),
-    ParamSpec("filter_window", 10, "moving-average window (paper Sec. VI: 10)", unit="frames",
+    ParamSpec("filter_window", paper.FILTER_WINDOW, "moving-average window (paper Sec. VI: 10)",
+              unit="frames",
               low=1, high=1000, read_only=True),
     ParamSpec("default_gain", 0.0005, "gain of taxels whose layout has no gain column",
               unit="N/count", low=0.0, high=1.0, read_only=True),

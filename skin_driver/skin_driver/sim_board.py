@@ -36,6 +36,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from phri_common import paper
 from skin_driver.calibration import CalibrationConfig
 from skin_driver.layout import SkinLayout, load_layout, rectangular_patch
 from skin_driver.protocol import FLAG_OVERRUN, encode_frame
@@ -382,7 +383,8 @@ def _parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     p.add_argument("--boards", type=int, default=1, help="boards when no --layout is given")
     p.add_argument("--taxels", type=int, default=256, help="taxels per board without --layout")
     p.add_argument("--first-board-id", type=int, default=0)
-    p.add_argument("--rate", type=float, default=500.0, help="frames per second per board [Hz]")
+    p.add_argument("--rate", type=float, default=paper.SKIN_RATE_HZ,
+                   help="frames per second per board [Hz] (paper III-A: 500)")
     p.add_argument("--duration", type=float, default=0.0, help="seconds to run (0 = forever)")
     p.add_argument("--force", type=float, default=5.0, help="press force [N]")
     p.add_argument("--radius", type=float, default=0.02, help="press radius [m]")

@@ -37,7 +37,7 @@ def contact(force: np.ndarray, center: np.ndarray = CENTER, k: int = 0) -> Conta
 def step(task: ContactTask, state: ContactState, rot: np.ndarray, pos: np.ndarray,
          yaw: float) -> TaskOutput:
     """One task step with array inputs (the controller hands floats)."""
-    return task.step(state, rot.ravel().tolist(), pos.tolist(), math.cos(yaw), math.sin(yaw))
+    return task.step(state, rot.ravel().tolist(), pos.tolist(), yaw)
 
 
 def make_task(**kwargs: object) -> ContactTask:

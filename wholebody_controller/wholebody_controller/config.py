@@ -1,9 +1,11 @@
 """Controller configuration: plain frozen dataclasses (no ROS), defaults from the paper.
 
-Defaults are Table II and Section VI of the paper: q̇ ∈ [−0.15, 0.15] (rad/s for joints, m/s for
-the base translation), k_η = 200, b = 4, K_p = 5, ψ_thr = 1e-4, ε = 0.1, h = 0.15, 100 Hz, and the
-desired-region margin of 0.01 m (VI-A.2). The default admittance is the contact-centring set of
-VI-A.1 (Λ = 0.5 I, D = 40 I, K = 0); the other experiments' sets are provided as constants.
+Defaults are Table II and Section VI of the paper, read from :mod:`phri_common.paper` (the one
+place they are typed): q̇ ∈ [−0.15, 0.15] (rad/s for joints, m/s for the base translation),
+k_η = 200, b = 4, K_p = 5, ψ_thr = 1e-4, ε = 0.1, h = 0.15, 100 Hz, and the desired-region margin
+of 0.01 m (VI-A.2). The default admittance is the contact-centring set of VI-A.1 (Λ = 0.5 I,
+D = 40 I, K = 0); the other experiments' sets are provided as constants. The skin links are the
+robot description's (:data:`phri_description.description.SKIN_LINKS`).
 """
 
 from __future__ import annotations
@@ -15,14 +17,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-SKIN_LINKS: tuple[str, ...] = ("left_upper_arm_link", "left_forearm_link", "right_forearm_link")
+from phri_common import paper
+from phri_common.paper import Vector6
+from phri_description.description import SKIN_LINKS
+
 SOLVERS: tuple[str, ...] = ("daqp", "osqp")
-
-Vector6 = tuple[float, float, float, float, float, float]
-
-
-def _six(value: float) -> Vector6:
-    return (value, value, value, value, value, value)
 
 
 @dataclass(frozen=True)
@@ -35,9 +34,9 @@ class AdmittanceGains:
         stiffness: K [N/m] / [N·m/rad], ≥ 0.
     """
 
-    inertia: Vector6 = (0.5, 0.5, 0.5, 0.5, 0.5, 0.5)
-    damping: Vector6 = (40.0, 40.0, 40.0, 40.0, 40.0, 40.0)
-    stiffness: Vector6 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    inertia: Vector6 = paper.CENTRING.inertia
+    damping: Vector6 = paper.CENTRING.damping
+    stiffness: Vector6 = paper.CENTRING.stiffness
 
     def __post_init__(self) -> None:
         for name in ("inertia", "damping", "stiffness"):
@@ -49,12 +48,17 @@ class AdmittanceGains:
         if min(self.damping) < 0.0 or min(self.stiffness) < 0.0:
             raise ValueError("admittance damping and stiffness must be ≥ 0")
 
+    @classmethod
+    def of(cls, gains: paper.Admittance) -> AdmittanceGains:
+        """The validated gains of one of the paper's sets."""
+        return cls(gains.inertia, gains.damping, gains.stiffness)
 
-#: Paper parameter sets (Sec. VI).
-CONTACT_CENTRING = AdmittanceGains(_six(0.5), _six(40.0), _six(0.0))
-CONTACT_TRACKING = AdmittanceGains(_six(0.5), (40.0, 40.0, 500.0, 40.0, 40.0, 40.0), _six(0.0))
-WHOLE_BODY = AdmittanceGains(_six(0.5), _six(60.0), _six(40.0))
-WALTZ = AdmittanceGains(_six(0.1), _six(200.0), _six(0.0))
+
+#: Paper parameter sets (Sec. VI-A.1, VI-A.2, VI-A.3, VI-B).
+CONTACT_CENTRING = AdmittanceGains.of(paper.CENTRING)
+CONTACT_TRACKING = AdmittanceGains.of(paper.TRACKING)
+WHOLE_BODY = AdmittanceGains.of(paper.WHOLE_BODY)
+WALTZ = AdmittanceGains.of(paper.WALTZ)
 
 
 @dataclass(frozen=True)
@@ -119,9 +123,10 @@ class JointRange:
 
 
 def dance_ranges(
-    joints: Sequence[str], q_dance: Sequence[float], half_width: float = 0.1
+    joints: Sequence[str], q_dance: Sequence[float],
+    half_width: float = paper.Q_DANCE_HALF_WIDTH,
 ) -> tuple[JointRange, ...]:
-    """Ranges ``q_dance ± half_width`` (VI-B) for the given joints."""
+    """Ranges ``q_dance ± half_width`` [rad] (VI-B: 0.1) for the given joints."""
     if len(joints) != len(q_dance):
         raise ValueError(f"q_dance has {len(q_dance)} values for {len(joints)} joints")
     if half_width < 0.0:
@@ -154,15 +159,15 @@ class ControllerConfig:
     """
 
     links: tuple[LinkTaskConfig, ...] = tuple(LinkTaskConfig(name) for name in SKIN_LINKS)
-    k_eta: float = 200.0
-    b: float = 4.0
-    k_p: float = 5.0
-    psi_thr: float = 1e-4
-    epsilon: float = 0.1
-    horizon: float = 0.15
-    rate_hz: float = 100.0
-    region_margin: float = 0.01
-    velocity_limit: float = 0.15
+    k_eta: float = paper.K_ETA
+    b: float = paper.B
+    k_p: float = paper.K_P
+    psi_thr: float = paper.PSI_THR
+    epsilon: float = paper.EPSILON
+    horizon: float = paper.HORIZON
+    rate_hz: float = paper.CONTROL_RATE_HZ
+    region_margin: float = paper.REGION_MARGIN
+    velocity_limit: float = paper.VELOCITY_LIMIT
     joint_ranges: tuple[JointRange, ...] = ()
     solver: str = "daqp"
 

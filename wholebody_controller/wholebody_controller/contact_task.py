@@ -25,6 +25,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from phri_common.planar import base_to_world
 from phri_common.records import ContactState
 from wholebody_controller.admittance import Admittance
 from wholebody_controller.config import LinkTaskConfig, diag6
@@ -88,12 +89,6 @@ def contact_wrench(force: Vec3, torque: Vec3, mu: Vec3, k_eta: float, rot: Mat9)
     """
     pushed = (force[0] + k_eta * mu[0], force[1] + k_eta * mu[1], force[2] + k_eta * mu[2])
     return [*rotate(rot, pushed), *rotate(rot, torque)]
-
-
-def base_to_world(vector: Vec3, cos_yaw: float, sin_yaw: float) -> Vec3:
-    """A base-frame vector in the world (odom) frame: rotation by the base yaw about z."""
-    x, y, z = vector
-    return cos_yaw * x - sin_yaw * y, sin_yaw * x + cos_yaw * y, z
 
 
 def priority(deflection_velocity: Sequence[float], b: float) -> float:
@@ -302,8 +297,8 @@ class ContactTask:
         self._had_contact = bool(contact.in_contact)
         return rate
 
-    def _wrench(self, contact: ContactState, rot: Mat9, cos_yaw: float,
-                sin_yaw: float) -> tuple[list[float], Vec3]:
+    def _wrench(self, contact: ContactState, rot: Mat9,
+                base_yaw: float) -> tuple[list[float], Vec3]:
         """(10)–(12) plus the manual desired force (base frame → world); also ᶦμ [m]."""
         mu: Vec3 = _ZERO3
         wrench = [0.0] * 6
@@ -317,10 +312,10 @@ class ContactTask:
                                     mu, self.k_eta, rot)
         fx, fy, fz = self.desired_force
         if fx != 0.0 or fy != 0.0 or fz != 0.0:
-            dx, dy, dz = base_to_world(self.desired_force, cos_yaw, sin_yaw)
+            dx, dy = base_to_world(base_yaw, fx, fy)
             wrench[0] += dx
             wrench[1] += dy
-            wrench[2] += dz
+            wrench[2] += fz
         return wrench, mu
 
     def _velocities(self, rot: Mat9, pos: Vec3, rate: Vec3 | None) -> tuple[float, ...]:
@@ -338,18 +333,17 @@ class ContactTask:
         return (lx + (dx - sx), ly + (dy - sy), lz + (dz - sz), *angular,
                 lx + dx, ly + dy, lz + dz, *angular)
 
-    def step(self, contact: ContactState, rot: Mat9, pos: Vec3, cos_yaw: float,
-             sin_yaw: float) -> TaskOutput:
+    def step(self, contact: ContactState, rot: Mat9, pos: Vec3, base_yaw: float) -> TaskOutput:
         """One control step of this link (Algorithm 1 around (8), (10)–(20)).
 
         Args:
             contact: the link's latest contact state (link frame).
             rot: ⁰R_i, the link frame's rotation in the world, row-major.
             pos: ⁰p_γi, the link frame's origin in the world [m].
-            cos_yaw, sin_yaw: of the base heading (turn the base-frame desired force).
+            base_yaw: base heading [rad] (turns the base-frame desired force into the world).
         """
         rate = self._track_contact(contact)
-        wrench, mu = self._wrench(contact, rot, cos_yaw, sin_yaw)
+        wrench, mu = self._wrench(contact, rot, base_yaw)
         adm = self.admittance
         adm.step_f(wrench)  # (13)
         lock = self.config.priority_lock

@@ -33,14 +33,15 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from phri_common.planar import base_to_world
 from phri_common.records import ContactState
+from phri_description.description import BASE_JOINTS
 from wholebody_controller.config import ControllerConfig
 from wholebody_controller.contact_task import TARGET, ContactTask, TaskOutput
 from wholebody_controller.qp import QPBuilder, QPError, QPProblem, QPSolver, make_solver
 
 Array = NDArray[np.float64]
 
-BASE_JOINTS: tuple[str, str, str] = ("base_x", "base_y", "base_yaw")
 
 
 class KinematicsModel(Protocol):
@@ -231,7 +232,7 @@ class WholeBodyController:
             if contact is None:
                 contact = task.no_contact
             rot, pos = link_pose(link)
-            out = task.step(contact, rot.ravel().tolist(), pos.tolist(), c, s)
+            out = task.step(contact, rot.ravel().tolist(), pos.tolist(), yaw)
             outputs.append(out)
             targets += out.values[TARGET]
             psi2 = 2.0 * out.psi
@@ -254,7 +255,5 @@ class WholeBodyController:
         u = command.tolist()
         if not isfinite(sum(u)):
             raise QPError("non-finite command")
-        vx, vy = u[0], u[1]
-        u[0] = c * vx - s * vy
-        u[1] = s * vx + c * vy
+        u[0], u[1] = base_to_world(yaw, u[0], u[1])
         return StepResult(command, np.array(u), tuple(outputs), problem, target, jacobian)

@@ -30,6 +30,7 @@ import mujoco
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from phri_common.planar import base_to_world, world_to_base
 from phri_description.description import JOINT_NAMES, RobotDescription, robot_description
 from phri_description.mujoco_model import build_model, dof_indices, qpos_indices
 
@@ -192,12 +193,10 @@ def base_twist_from_rates(yaw: float, rates: ArrayLike) -> FloatArray:
     v = R_z(yaw)ᵀ [ẋ, ẏ]; ω_z = ψ̇ (the base moves in the plane, so its yaw rate is frame-free).
     """
     r = np.asarray(rates, dtype=np.float64)
-    c, s = math.cos(yaw), math.sin(yaw)
-    return np.array([c * r[0] + s * r[1], -s * r[0] + c * r[1], r[2]])
+    return np.array([*world_to_base(yaw, float(r[0]), float(r[1])), r[2]])
 
 
 def base_rates_from_twist(yaw: float, twist: ArrayLike) -> FloatArray:
     """Inverse of :func:`base_twist_from_rates`: world rates [ẋ, ẏ, ψ̇] from a base twist."""
     t = np.asarray(twist, dtype=np.float64)
-    c, s = math.cos(yaw), math.sin(yaw)
-    return np.array([c * t[0] - s * t[1], s * t[0] + c * t[1], t[2]])
+    return np.array([*base_to_world(yaw, float(t[0]), float(t[1])), t[2]])

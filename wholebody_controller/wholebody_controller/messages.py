@@ -26,6 +26,7 @@ from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Float64MultiArray, Header, MultiArrayDimension
 
 from phri_common.cloud import cloud_records, point_fields, record_dtype
+from phri_common.planar import yaw_from_quaternion
 from phri_common.stamps import ns_to_stamp
 from wholebody_controller.contact_task import (
     CONTROL,
@@ -103,8 +104,7 @@ def odom_to_base(msg: Odometry) -> Array:
     norm = math.sqrt(o.x**2 + o.y**2 + o.z**2 + o.w**2)
     if not 0.5 < norm < 1.5:
         raise InputError(f"odometry quaternion has norm {norm:.3g}")
-    yaw = math.atan2(2.0 * (o.w * o.z + o.x * o.y), 1.0 - 2.0 * (o.y**2 + o.z**2))
-    return np.array([p.x, p.y, yaw])
+    return np.array([p.x, p.y, yaw_from_quaternion(o.w, o.x, o.y, o.z)])
 
 
 def joint_positions(msg: JointState) -> dict[str, float]:

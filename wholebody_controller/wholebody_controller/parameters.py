@@ -3,7 +3,8 @@
 
 Per-link parameters are named ``<link>.<name>``; :func:`link_param_specs` makes them for any link
 list, :data:`PARAMS` holds the full list for the default links (documented in
-``docs/wholebody_controller.md``).
+``docs/wholebody_controller.md``). Defaults are the paper's (:mod:`phri_common.paper`), the links
+the robot description's skin links.
 """
 
 from __future__ import annotations
@@ -11,9 +12,10 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+from phri_common import paper
 from phri_common.params import ParamSpec
+from phri_description.description import SKIN_LINKS
 from wholebody_controller.config import (
-    SKIN_LINKS,
     AdmittanceGains,
     ControllerConfig,
     LinkTaskConfig,
@@ -27,17 +29,20 @@ LINKS_PARAM = ParamSpec(
 )
 
 GLOBAL_PARAMS: list[ParamSpec] = [
-    ParamSpec("rate_hz", 100.0, "control rate (timer and admittance discretisation)", "Hz",
+    ParamSpec("rate_hz", paper.CONTROL_RATE_HZ,
+              "control rate (timer and admittance discretisation)", "Hz",
               1.0, 1000.0, read_only=True),
-    ParamSpec("k_eta", 200.0, "track-force gain k_η of (12)", "N/m", 0.0, 1e5),
-    ParamSpec("b", 4.0, "priority shape b of (15)", "s²/m²", 0.0, 1e6),
-    ParamSpec("k_p", 5.0, "task-space gain K_p of (19)", "1/s", 0.0, 1000.0),
-    ParamSpec("psi_thr", 1e-4, "activation threshold ψ_thr (also the weight floor)", "-",
+    ParamSpec("k_eta", paper.K_ETA, "track-force gain k_η of (12)", "N/m", 0.0, 1e5),
+    ParamSpec("b", paper.B, "priority shape b of (15)", "s²/m²", 0.0, 1e6),
+    ParamSpec("k_p", paper.K_P, "task-space gain K_p of (19)", "1/s", 0.0, 1000.0),
+    ParamSpec("psi_thr", paper.PSI_THR, "activation threshold ψ_thr (also the weight floor)",
+              "-",
               1e-12, 0.5),
-    ParamSpec("epsilon", 0.1, "QP regularisation ε of (23)", "-", 1e-9, 1e6),
-    ParamSpec("horizon", 0.15, "position-limit horizon h of (22)", "s", 1e-3, 10.0),
-    ParamSpec("region_margin", 0.01, "margin around the region locked as Ω_d", "m", 0.0, 1.0),
-    ParamSpec("velocity_limit", 0.15,
+    ParamSpec("epsilon", paper.EPSILON, "QP regularisation ε of (23)", "-", 1e-9, 1e6),
+    ParamSpec("horizon", paper.HORIZON, "position-limit horizon h of (22)", "s", 1e-3, 10.0),
+    ParamSpec("region_margin", paper.REGION_MARGIN, "margin around the region locked as Ω_d",
+              "m", 0.0, 1.0),
+    ParamSpec("velocity_limit", paper.VELOCITY_LIMIT,
               "|q̇| bound of every joint and base axis (Table II), within the robot's own",
               "rad/s or m/s", 0.0, 10.0),
     ParamSpec("q_dance_enabled", False,
@@ -45,7 +50,8 @@ GLOBAL_PARAMS: list[ParamSpec] = [
     ParamSpec("q_dance", [0.0] * 12,
               "arm configuration q_dance, left then right arm in the command joint order",
               "rad", -7.0, 7.0, length=12),
-    ParamSpec("q_dance_range", 0.1, "half width of the q_dance joint ranges", "rad", 0.0, 6.3),
+    ParamSpec("q_dance_range", paper.Q_DANCE_HALF_WIDTH,
+              "half width of the q_dance joint ranges", "rad", 0.0, 6.3),
     ParamSpec("solver", "daqp", "QP backend: daqp (exact, default) or osqp (warm-started)"),
     ParamSpec("contact_timeout", 0.1, "contact state older than this → zero command", "s",
               1e-3, 10.0),
@@ -63,11 +69,14 @@ LINK_SUFFIXES: tuple[str, ...] = (
 def link_param_specs(link: str) -> list[ParamSpec]:
     """The per-link parameters ``<link>.inertia`` … for one link."""
     return [
-        ParamSpec(f"{link}.inertia", [0.5] * 6, "admittance inertia Λ diagonal (x y z rx ry rz)",
+        ParamSpec(f"{link}.inertia", list(paper.CENTRING.inertia),
+                  "admittance inertia Λ diagonal (x y z rx ry rz)",
                   "kg, kg·m²", 1e-6, 1e6, length=6),
-        ParamSpec(f"{link}.damping", [40.0] * 6, "admittance damping D diagonal",
+        ParamSpec(f"{link}.damping", list(paper.CENTRING.damping),
+                  "admittance damping D diagonal",
                   "N·s/m, N·m·s/rad", 0.0, 1e6, length=6),
-        ParamSpec(f"{link}.stiffness", [0.0] * 6, "admittance stiffness K diagonal",
+        ParamSpec(f"{link}.stiffness", list(paper.CENTRING.stiffness),
+                  "admittance stiffness K diagonal",
                   "N/m, N·m/rad", 0.0, 1e6, length=6),
         ParamSpec(f"{link}.priority_lock", 0.0,
                   "fixed priority ψ (manual task); 0 = automatic (15)", "-", 0.0, 1.0),
