@@ -82,6 +82,10 @@ class FakeKinematics:
         t = self._chains[side][k]
         return t[0:3, 0:3].copy(), t[0:3, 3].copy()
 
+    def link_pose_floats(self, link: str) -> tuple[list[float], list[float]]:
+        rot, pos = self.link_pose(link)
+        return rot.ravel().tolist(), pos.tolist()
+
     def point_jacobian(self, link: str, point: Array, out: Array | None = None) -> Array:
         side, k, offset = self._locate(link)
         frames = self._chains[side]

@@ -71,6 +71,10 @@ class KinematicsModel(Protocol):
         """(⁰R_i 3×3, ⁰p_γi 3) of a link frame in the world."""
         ...
 
+    def link_pose_floats(self, link: str) -> tuple[list[float], list[float]]:
+        """:meth:`link_pose` as floats: (⁰R_i row-major, 9; ⁰p_γi, 3)."""
+        ...
+
     def point_jacobian(self, link: str, point: Array, out: Array | None = None) -> Array:
         """6×n world-frame [linear; angular] Jacobian of a point fixed on the link (8), written
         into ``out`` (6×n, C-contiguous) when given, and returned."""
@@ -221,7 +225,7 @@ class WholeBodyController:
         kin.update(q)
         yaw = q_floats[2]
         c, s = cos(yaw), sin(yaw)
-        link_pose = kin.link_pose
+        link_pose = kin.link_pose_floats
         point_jacobian = kin.point_jacobian
         targets: list[float] = []
         weights: list[float] = []
@@ -232,7 +236,7 @@ class WholeBodyController:
             if contact is None:
                 contact = task.no_contact
             rot, pos = link_pose(link)
-            out = task.step(contact, rot.ravel().tolist(), pos.tolist(), yaw)
+            out = task.step(contact, rot, pos, yaw)
             outputs.append(out)
             targets += out.values[TARGET]
             psi2 = 2.0 * out.psi

@@ -140,6 +140,12 @@ class RobotKinematics:
         _, xmat, xpos = self._frame(link)
         return xmat.reshape(3, 3).copy(), xpos.copy()
 
+    def link_pose_floats(self, link: str) -> tuple[list[float], list[float]]:
+        """:meth:`link_pose` as plain floats (⁰R_i row-major 9, ⁰p_γi 3 [m]) for the control
+        step, which works on floats: no copies or reshapes on the way."""
+        _, xmat, xpos = self._frame(link)
+        return xmat.tolist(), xpos.tolist()
+
     def point_position(self, link: str, point_in_link: ArrayLike) -> FloatArray:
         """World position of a point fixed on the link, eq. (6): ⁰R_i ᶦp + ⁰p_γi [m]."""
         _, xmat, xpos = self._frame(link)

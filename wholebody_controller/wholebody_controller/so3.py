@@ -45,24 +45,23 @@ def coefficients(theta2: float) -> tuple[float, float, float]:
     return sin_t / theta, (1.0 - math.cos(theta)) / theta2, (theta - sin_t) / (theta2 * theta)
 
 
-def identity_plus(alpha: float, beta: float, phi: Vec3) -> tuple[float, ...]:
-    """``I + α [φ]× + β [φ]×²`` as a row-major 9-tuple (the shape of both exp and J_l)."""
-    x, y, z = phi
-    xx, yy, zz = x * x, y * y, z * z
-    xy, xz, yz = beta * x * y, beta * x * z, beta * y * z
-    ax, ay, az = alpha * x, alpha * y, alpha * z
-    return (
-        1.0 - beta * (yy + zz), xy - az, xz + ay,
-        xy + az, 1.0 - beta * (xx + zz), yz - ax,
-        xz - ay, yz + ax, 1.0 - beta * (xx + yy),
-    )
-
-
 def exp_and_left_jacobian(phi: Vec3) -> tuple[tuple[float, ...], tuple[float, ...]]:
-    """``(exp([φ]×), J_l(φ))`` of a rotation vector φ [rad], sharing the trigonometry."""
+    """``(exp([φ]×), J_l(φ))`` of a rotation vector φ [rad], sharing the trigonometry.
+
+    Both are ``I + α [φ]× + β [φ]×²`` with ``[φ]×² = φφᵀ − θ²I``: (α, β) = (a, b) for exp and
+    (b, c) for J_l, with (a, b, c) from :func:`coefficients`.
+    """
     x, y, z = phi
-    a, b, c = coefficients(x * x + y * y + z * z)
-    return identity_plus(a, b, phi), identity_plus(b, c, phi)
+    xx, yy, zz, xy, xz, yz = x * x, y * y, z * z, x * y, x * z, y * z
+    a, b, c = coefficients(xx + yy + zz)
+    s0, s1, s2 = yy + zz, xx + zz, xx + yy  # minus the diagonal of [φ]×²
+    exp_phi = (1.0 - b * s0, b * xy - a * z, b * xz + a * y,
+               b * xy + a * z, 1.0 - b * s1, b * yz - a * x,
+               b * xz - a * y, b * yz + a * x, 1.0 - b * s2)
+    jac = (1.0 - c * s0, c * xy - b * z, c * xz + b * y,
+           c * xy + b * z, 1.0 - c * s1, c * yz - b * x,
+           c * xz - b * y, c * yz + b * x, 1.0 - c * s2)
+    return exp_phi, jac
 
 
 def exp(phi: Vec3) -> tuple[float, ...]:
