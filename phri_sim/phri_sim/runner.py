@@ -233,7 +233,7 @@ class ScenarioRun:
         marks = self._marks()
         bridge.advance(1, clock=False)
         stamp = bridge.stamp_ns
-        patch_link = bridge.sim.patch_link
+        patch_link = bridge.sim.skins.patch_link
         self._fresh_links = {patch_link[p] for p in bridge.published_patches}
         self._spin_until(lambda: self._inputs_ready(stamp, marks), "sensor data")
         before = dict(bridge.commands_received)

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from phri_description.description import robot_description
 from phri_sim.person import LEFT_HAND, PartTarget
 from phri_sim.scenarios import Q_HOME, press_geometry
-from phri_sim.sim import CommandError, CommandWatchdog, SimConfig, Simulation
+from phri_sim.sim import SimConfig, Simulation
 from phri_sim.skin import (
     CapsuleShape,
     SkinConfig,
@@ -19,6 +19,7 @@ from phri_sim.skin import (
     footprint_weights,
     layout_for_patch,
 )
+from phri_sim.watchdog import CommandError, CommandWatchdog
 from skin_driver.layout import cylindrical_patch
 
 
@@ -98,7 +99,7 @@ def test_taxel_total_equals_spring_force_within_2_percent() -> None:
     sim, target = _pressed_sim()
     hand, _ = sim.part_pose("person_right_hand")
     spring = LEFT_HAND.stiffness * (target.position - hand)
-    forces = sim.skin_forces(noise=False)["right_forearm"]
+    forces = sim.skins.forces(noise=False)["right_forearm"]
     assert np.linalg.norm(spring) == pytest.approx(12.0, rel=0.1)
     assert forces.sum() == pytest.approx(np.linalg.norm(spring), rel=0.02)
     # The resultant of the taxels' normal forces on the link is the spring's push.
@@ -112,7 +113,7 @@ def test_taxel_total_equals_spring_force_within_2_percent() -> None:
 
 def test_pressed_link_reports_taxels_where_touched_and_nowhere_else() -> None:
     sim, _ = _pressed_sim(noise=0.005)
-    frames = sim.skin_forces()
+    frames = sim.skins.forces()
     threshold = 0.05  # contact estimation's default σ_t
     for name, forces in frames.items():
         lit = forces > threshold
@@ -189,6 +190,6 @@ def test_same_seed_same_noise(seed: int) -> None:
     for _ in range(3):
         a.step(2)
         b.step(2)
-        fa, fb = a.skin_forces(), b.skin_forces()
+        fa, fb = a.skins.forces(), b.skins.forces()
         for k in fa:
             np.testing.assert_array_equal(fa[k], fb[k])
