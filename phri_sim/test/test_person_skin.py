@@ -19,7 +19,6 @@ from phri_sim.skin import (
     footprint_weights,
     layout_for_patch,
 )
-from phri_sim.watchdog import CommandError, CommandWatchdog
 from skin_driver.layout import cylindrical_patch
 
 
@@ -154,18 +153,6 @@ def test_robot_yields_and_force_falls() -> None:
     after = sim.ground_truth()["right_forearm_link"].normal_force
     assert before > 10.0
     assert after < 0.5 * before
-
-
-def test_watchdog_zeroes_stale_and_refuses_nan() -> None:
-    wd = CommandWatchdog(0.1)
-    wd.set("left", np.ones(6), 1.0)
-    np.testing.assert_array_equal(wd.current("left", 1.05), np.ones(6))
-    np.testing.assert_array_equal(wd.current("left", 1.2), np.zeros(6))
-    with pytest.raises(CommandError):
-        wd.set("base", np.array([np.nan, 0.0, 0.0]), 1.0)
-    np.testing.assert_array_equal(wd.current("base", 1.0), np.zeros(3))
-    with pytest.raises(CommandError):
-        wd.set("right", np.ones(5), 1.0)
 
 
 def test_body_twist_is_followed_in_the_body_frame() -> None:

@@ -29,7 +29,6 @@ from phri_sim.scenarios import (
 )
 from phri_sim.sim import SimConfig, Simulation
 from phri_sim.skin import SkinConfig
-from phri_sim.watchdog import CommandWatchdog
 
 
 def _quiet_sim(**kwargs: object) -> Simulation:
@@ -129,14 +128,16 @@ def test_person_wrench_matches_mujoco_quaternion_difference() -> None:
 
 
 def test_target_moves_with_its_velocity_between_updates() -> None:
-    """Set at t = 0 with velocity v, the target pulls at t towards p + v t, not p."""
+    """Set at t₁ with velocity v, the target pulls at t towards p + v (t − t₁), not p."""
     sim = _quiet_sim()
+    sim.step(10)
+    t_set = sim.time
     target = PartTarget(np.array(LEFT_HAND.parking), np.array([0.1, 0.0, 0.0]))
     sim.set_target("person_left_hand", target)
     sim.step(10)
     sim.person.apply_wrenches(sim.time)
-    moved = target.position + target.velocity * sim.time
-    assert sim.time > 0.0
+    moved = target.position + target.velocity * (sim.time - t_set)
+    assert sim.time > t_set > 0.0
     force, _ = _expected_wrench(sim, LEFT_HAND, moved, target.velocity, 0.0)
     b = sim.person.part_body[LEFT_HAND.name]
     np.testing.assert_allclose(sim.data.xfrc_applied[b, :3], force, atol=1e-9)
@@ -177,17 +178,6 @@ def test_hand_never_jumps(presses: list[tuple[float, float]], distance: float) -
     span = max(float(np.linalg.norm(p.point - q.point)) for p in plan for q in plan) + distance
     max_speed = 1.875 * (span + np.linalg.norm(plan[0].point) + 1.0) / HAND_TRAVEL + 1.0
     assert float(steps.max()) <= max_speed * dt
-
-
-def test_watchdog_next_change_is_when_a_command_goes_stale() -> None:
-    wd = CommandWatchdog(0.1)
-    assert wd.next_change(0.0) == math.inf
-    wd.set("left", np.ones(6), 1.0)
-    wd.set("base", np.ones(3), 1.05)
-    assert wd.next_change(1.06) == pytest.approx(1.1)
-    np.testing.assert_array_equal(wd.current("left", 1.0999), np.ones(6))
-    np.testing.assert_array_equal(wd.current("left", 1.1001), np.zeros(6))
-    assert wd.next_change(1.11) == pytest.approx(1.15)
 
 
 def test_refuses_a_timestep_that_diverges() -> None:
