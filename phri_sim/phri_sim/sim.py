@@ -35,15 +35,15 @@ from phri_description.description import robot_description
 from phri_sim.person import PERSON_PARTS, BodyPartSpec, PartTarget
 from phri_sim.scene import scene_spec
 from phri_sim.sim_person import SimPerson
-from phri_sim.sim_robot import ARM_JOINTS, ARM_SIDES, SimRobot
+from phri_sim.sim_robot import ARM_JOINTS, SimRobot
 from phri_sim.sim_skins import LinkGroundTruth, SimSkins
 from phri_sim.skin import SkinConfig, SkinPatchModel
 from phri_sim.watchdog import CommandError, CommandWatchdog
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["ARM_JOINTS", "ARM_SIDES", "CommandError", "CommandWatchdog", "LinkGroundTruth",
-           "SimConfig", "Simulation"]
+__all__ = ["ARM_JOINTS", "CommandError", "CommandWatchdog", "LinkGroundTruth", "SimConfig",
+           "Simulation"]
 
 MIN_TIMESTEP, MAX_TIMESTEP = 0.0005, 0.005
 """Accepted physics steps [s]: at 10 ms the stiff velocity servos and contacts diverge."""

@@ -107,13 +107,6 @@ class SimPerson:
             self.data.qpos[self._tissue_qpos[name]] = 0.0
             self.data.qvel[self._tissue_dofs[name]] = 0.0
 
-    def tissue_deflection(self, part: str) -> FloatArray:
-        """Displacement of a part's tissue layer from rest in the part's frame (x, y) [m]
-        (zeros for a part without tissue)."""
-        if part not in self._tissue_qpos:
-            return np.zeros(2)
-        return np.asarray(self.data.qpos[self._tissue_qpos[part]], dtype=np.float64)
-
     def part_pose(self, part: str) -> tuple[FloatArray, FloatArray]:
         """(position [m], quaternion w x y z) of a part in the world."""
         b = self.part_body[part]

@@ -44,8 +44,6 @@ class LinkGroundTruth:
         force_link: the same in the link frame [N].
         normal_force: sum of the contacts' normal force magnitudes [N].
         center_link: force-weighted mean contact point in the link frame [m].
-        skin_force: normal force that landed on taxels (≤ ``normal_force``; less when part of the
-            contact is off the covered area) [N].
     """
 
     link: str
@@ -54,7 +52,6 @@ class LinkGroundTruth:
     force_link: FloatArray = field(default_factory=lambda: np.zeros(3))
     normal_force: float = 0.0
     center_link: FloatArray = field(default_factory=lambda: np.zeros(3))
-    skin_force: float = 0.0
 
 
 def geom_shape(model: mujoco.MjModel, data: mujoco.MjData, geom: int) -> Shape:
@@ -172,7 +169,6 @@ class SimSkins:
                                                  for g, fn in contacts])
             else:
                 forces = np.zeros(patch.size)
-            self._truth[link].skin_force = float(forces.sum())
             out[name] = forces
         return out
 
