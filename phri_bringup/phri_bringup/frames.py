@@ -73,12 +73,6 @@ class RobotFrames:
                                   float(quat[3]))))
         return out
 
-    def world_pose(self, link: str) -> tuple[FloatArray, FloatArray]:
-        """(⁰R 3×3, ⁰p [m]) of a link at the state last passed to :meth:`transforms`."""
-        b = self.model.body(link).id
-        return (np.asarray(self.data.xmat[b].reshape(3, 3), dtype=np.float64),
-                np.asarray(self.data.xpos[b], dtype=np.float64))
-
 
 def yaw_from_quaternion(w: float, x: float, y: float, z: float) -> float:
     """Yaw [rad] of a quaternion (rotation about z of a planar pose)."""

@@ -212,11 +212,6 @@ def real_graph(ports: dict[str, str] | None = None, layout_dir: str = "config/sk
     return nodes
 
 
-def in_process_nodes(graph: list[NodeSpec]) -> list[NodeSpec]:
-    """The nodes the lock-step runner creates itself."""
-    return [n for n in graph if n.in_process]
-
-
 SIM_TOPICS: tuple[TopicSpec, ...] = (
     *(TopicSpec(f"/skin/{p}/taxels", "sensor_msgs/msg/PointCloud2") for p in PATCHES),
     *(TopicSpec(f"/contacts/{link}", "sensor_msgs/msg/PointCloud2") for link in SKIN_LINKS),

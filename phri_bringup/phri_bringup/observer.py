@@ -156,7 +156,4 @@ class ObserverNode(Node):
                 values += list(msg.data)
         return all(v == 0.0 for v in values)
 
-    def close_sinks(self) -> None:
-        for sink in self.sinks:
-            sink.close()
 

@@ -68,7 +68,6 @@ class RunData:
     psi: dict[str, Series] = field(default_factory=dict)
     joint_names: list[str] = field(default_factory=list)
     joint_velocity: Series = field(default_factory=lambda: Series.of([], 12))
-    joint_position: Series = field(default_factory=lambda: Series.of([], 12))
     cmd_vel: Series = field(default_factory=lambda: Series.of([], 3))
     odom: Series = field(default_factory=lambda: Series.of([], 6))
     torso: Series = field(default_factory=lambda: Series.of([], 2))
@@ -117,7 +116,6 @@ def read_run(path: str | Path) -> RunData:
             elif topic == "/joint_states":
                 data.joint_names = list(msg.name)
                 rows["qd"].append((t, list(msg.velocity)))
-                rows["q"].append((t, list(msg.position)))
             elif topic == "/cmd_vel":
                 rows["cmd_vel"].append((t, [msg.linear.x, msg.linear.y, msg.angular.z]))
             elif topic == "/odom":
@@ -133,7 +131,6 @@ def read_run(path: str | Path) -> RunData:
         data.true_centre[link] = Series.of(rows["true_centre/" + link], 3)
         data.psi[link] = Series.of(rows["psi/" + link], 1)
     data.joint_velocity = Series.of(rows["qd"], 12)
-    data.joint_position = Series.of(rows["q"], 12)
     data.cmd_vel = Series.of(rows["cmd_vel"], 3)
     data.odom = Series.of(rows["odom"], 6)
     data.torso = Series.of(rows["torso"], 2)
