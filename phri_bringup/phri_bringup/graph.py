@@ -97,7 +97,6 @@ class TopicSpec:
 
     name: str
     type: str
-    recorded: bool = True
 
 
 def canonical_scenario(name: str) -> str:

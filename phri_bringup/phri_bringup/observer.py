@@ -46,7 +46,6 @@ class RobotState:
         self.joint_names: list[str] = []
         self.positions: list[float] = []
         self.base = [0.0, 0.0, 0.0]
-        self.version = 0
 
     def update(self, topic: str, raw: bytes) -> bool:
         """Decode a state message; True if ``topic`` carried robot state."""
@@ -60,7 +59,6 @@ class RobotState:
                          yaw_from_quaternion(q.w, q.x, q.y, q.z)]
         else:
             return False
-        self.version += 1
         return True
 
 
