@@ -261,9 +261,7 @@ class ScenarioRun:
             lambda: all(bridge.commands_received[k] > before[k] for k in before),
             "controller commands",
         )
-        wd = bridge.sim.watchdog
-        t = bridge.sim.time
-        self._last_command = np.concatenate([wd.current(k, t) for k in ("base", "left", "right")])
+        self._last_command = bridge.sim.watchdog.received(bridge.sim.time)
         self.metrics.sample(bridge.sim, self._last_command, self.estimates)
 
     def run(self) -> dict[str, Any]:

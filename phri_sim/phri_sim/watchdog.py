@@ -82,13 +82,18 @@ class CommandWatchdog:
         ends = [s + self.timeout for s in self._times.values() if t - s <= self.timeout]
         return min(ends) if ends else math.inf
 
+    def received(self, t: float) -> FloatArray:
+        """The 15 commanded velocities in force at sim time ``t``: body twist then the arms,
+        after the timeout, before clipping (a new array)."""
+        return np.concatenate([self.current(k, t) for k in COMMAND_SIZES])
+
     def applied(self, t: float) -> FloatArray:
         """The 15 velocities the servos follow at sim time ``t``: body twist then the arms, after
         the timeout and clipped to the limits. Recomputed only when a command arrives or one goes
         stale (a hair early at the staleness instant, where t − t_set vs timeout is decided by
         rounding); the returned array must not be modified."""
         if self._version != self._applied_version or t >= self._applied_until - 1e-9:
-            u = np.concatenate([self.current(k, t) for k in COMMAND_SIZES])
+            u = self.received(t)
             self._applied = np.asarray(np.clip(u, -self._limits, self._limits))
             self._applied_version = self._version
             self._applied_until = self.next_change(t)

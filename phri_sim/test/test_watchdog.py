@@ -50,6 +50,8 @@ def test_applied_is_base_then_arms_clipped_to_the_limits() -> None:
     expected = np.concatenate([[limits[0], -limits[1], 0.1], -limits[3:9],
                                [0.2, 0.0, 0.0, 0.0, 0.0, limits[14]]])
     np.testing.assert_array_equal(wd.applied(0.0), expected)
+    np.testing.assert_array_equal(wd.received(0.0), [10.0, -10.0, 0.1, *[-10.0] * 6,
+                                                     0.2, 0.0, 0.0, 0.0, 0.0, 30.0])
 
 
 def test_applied_follows_every_new_command_and_the_timeout() -> None:
