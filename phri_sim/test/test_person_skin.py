@@ -169,6 +169,34 @@ def test_body_twist_is_followed_in_the_body_frame() -> None:
     np.testing.assert_allclose(sim.base_twist(), [0.1, 0.0, 0.0], atol=2e-3)
 
 
+@pytest.mark.parametrize("yaw", [0.4, -2.0])
+def test_sideways_twist_turns_with_the_yaw(yaw: float) -> None:
+    """(v_x, v_y) in the base frame moves the base along R(yaw) (v_x, v_y) in the world."""
+    sim = Simulation(SimConfig(skin=SkinConfig(noise_std=0.0)))
+    q = np.array(Q_HOME)
+    q[2] = yaw
+    sim.reset(q)
+    twist = np.array([0.04, -0.08, 0.0])
+    for _ in range(100):
+        sim.command("base", twist)
+        sim.step(5)
+    c, s = np.cos(yaw), np.sin(yaw)
+    world = np.array([c * twist[0] - s * twist[1], s * twist[0] + c * twist[1]])
+    np.testing.assert_allclose(sim.qd[:2], world, atol=2e-3)
+    np.testing.assert_allclose(sim.base_twist(), twist, atol=2e-3)
+
+
+def test_reset_restarts_the_noise_from_the_seed() -> None:
+    sim = Simulation(SimConfig(seed=7))
+    first = sim.skins.forces()
+    sim.step(2)
+    sim.skins.forces()
+    sim.reset()
+    again = sim.skins.forces()
+    for patch, forces in first.items():
+        np.testing.assert_array_equal(again[patch], forces)
+
+
 @settings(max_examples=5, deadline=None)
 @given(st.integers(0, 1000))
 def test_same_seed_same_noise(seed: int) -> None:

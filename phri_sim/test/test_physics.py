@@ -149,6 +149,21 @@ def test_target_moves_with_its_velocity_between_updates() -> None:
     np.testing.assert_allclose(sim.data.xfrc_applied[b, :3], force, atol=1e-9)
 
 
+def test_reset_restarts_the_targets_clock() -> None:
+    """After a reset (time 0) a moving target pulls from where it was set, not from where it
+    would have been had its clock kept running."""
+    sim = _quiet_sim()
+    sim.step(20)
+    target = PartTarget(np.array(LEFT_HAND.parking), np.array([0.5, 0.0, 0.0]))
+    sim.set_target("person_left_hand", target)
+    sim.reset()
+    sim.person.apply_wrenches(sim.time)
+    assert sim.time == 0.0
+    force, _ = _expected_wrench(sim, LEFT_HAND, target.position, target.velocity, 0.0)
+    b = sim.person.part_body[LEFT_HAND.name]
+    np.testing.assert_allclose(sim.data.xfrc_applied[b, :3], force, atol=1e-9)
+
+
 @given(st.floats(0.0, 1.0))
 def test_minimum_jerk_rate_is_its_derivative(x: float) -> None:
     duration, h = 2.0, 1e-6
