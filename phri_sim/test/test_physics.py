@@ -149,14 +149,18 @@ def test_target_moves_with_its_velocity_between_updates() -> None:
     np.testing.assert_allclose(sim.data.xfrc_applied[b, :3], force, atol=1e-9)
 
 
-def test_reset_restarts_the_targets_clock() -> None:
-    """After a reset (time 0) a moving target pulls from where it was set, not from where it
-    would have been had its clock kept running."""
+@pytest.mark.parametrize("restart", ["reset", "settle"])
+def test_restart_restarts_the_targets_clock(restart: str) -> None:
+    """After a reset or a settling (time back to 0) a moving target pulls from where it was set,
+    not from where it would have been had its clock kept running."""
     sim = _quiet_sim()
     sim.step(20)
     target = PartTarget(np.array(LEFT_HAND.parking), np.array([0.5, 0.0, 0.0]))
     sim.set_target("person_left_hand", target)
-    sim.reset()
+    if restart == "reset":
+        sim.reset()
+    else:
+        sim.settle(0.0)
     sim.person.apply_wrenches(sim.time)
     assert sim.time == 0.0
     force, _ = _expected_wrench(sim, LEFT_HAND, target.position, target.velocity, 0.0)

@@ -93,3 +93,15 @@ def test_simulated_speeds_are_clipped_to_the_description_limits() -> None:
         sim.step(5)
     assert sim.qd[2] == pytest.approx(limits[2], rel=0.01)
     assert sim.qd[3] == pytest.approx(limits[3], rel=0.01)
+
+
+def test_reset_forgets_the_commands() -> None:
+    """A command given before a reset does not drive the robot after it (the clock went back to
+    0, so without a fresh watchdog the old command would look fresh)."""
+    sim = Simulation(SimConfig(skin=SkinConfig(noise_std=0.0)))
+    sim.reset(np.array(Q_HOME))
+    sim.step(25)
+    sim.command("base", np.array([0.1, 0.0, 0.0]))
+    sim.reset(np.array(Q_HOME))
+    sim.step(25)
+    np.testing.assert_allclose(sim.base_twist(), np.zeros(3), atol=1e-6)
