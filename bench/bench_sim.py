@@ -41,7 +41,7 @@ def step_times(skins: bool, n: int = 2000) -> np.ndarray:
             sim.set_target(part, target)
         sim.step()
         if skins:
-            sim.skin_forces()
+            sim.skins.forces()
         out[i] = time.perf_counter() - t0
     return out
 

@@ -75,8 +75,3 @@ class RobotFrames:
                                   float(quat[3]))))
         return out
 
-    def world_pose(self, link: str) -> tuple[FloatArray, FloatArray]:
-        """(⁰R 3×3, ⁰p [m]) of a link at the state last passed to :meth:`transforms`."""
-        b = self.model.body(link).id
-        return (np.asarray(self.data.xmat[b].reshape(3, 3), dtype=np.float64),
-                np.asarray(self.data.xpos[b], dtype=np.float64))

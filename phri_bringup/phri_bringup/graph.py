@@ -98,7 +98,6 @@ class TopicSpec:
 
     name: str
     type: str
-    recorded: bool = True
 
 
 def canonical_scenario(name: str) -> str:
@@ -211,11 +210,6 @@ def real_graph(ports: dict[str, str] | None = None, layout_dir: str = "config/sk
     if rviz:
         nodes.append(rviz_node())
     return nodes
-
-
-def in_process_nodes(graph: list[NodeSpec]) -> list[NodeSpec]:
-    """The nodes the lock-step runner creates itself."""
-    return [n for n in graph if n.in_process]
 
 
 SIM_TOPICS: tuple[TopicSpec, ...] = (

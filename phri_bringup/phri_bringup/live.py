@@ -94,10 +94,6 @@ class FoxgloveSink:
     def url(self) -> str:
         return f"ws://localhost:{self.port}"
 
-    def channel_topics(self) -> list[str]:
-        """Topics of the advertised channels."""
-        return ["/tf", "/robot", "/contacts", "/person", *(f"/skin/{p}" for p in PATCHES)]
-
     # -- messages -------------------------------------------------------------------------------
     def _due(self, key: str, stamp_ns: int) -> bool:
         last = self._last.get(key)

@@ -47,7 +47,6 @@ class RobotState:
         self.joint_names: list[str] = []
         self.positions: list[float] = []
         self.base = [0.0, 0.0, 0.0]
-        self.version = 0
 
     def update(self, topic: str, raw: bytes) -> bool:
         """Decode a state message; True if ``topic`` carried robot state."""
@@ -61,7 +60,6 @@ class RobotState:
                          yaw_from_quaternion(q.w, q.x, q.y, q.z)]
         else:
             return False
-        self.version += 1
         return True
 
 
@@ -157,7 +155,4 @@ class ObserverNode(Node):
                 values += list(msg.data)
         return all(v == 0.0 for v in values)
 
-    def close_sinks(self) -> None:
-        for sink in self.sinks:
-            sink.close()
 

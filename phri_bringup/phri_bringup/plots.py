@@ -70,11 +70,14 @@ class RunData:
     psi: dict[str, Series] = field(default_factory=dict)
     joint_names: list[str] = field(default_factory=list)
     joint_velocity: Series = field(default_factory=lambda: Series.of([], 12))
-    joint_position: Series = field(default_factory=lambda: Series.of([], 12))
     cmd_vel: Series = field(default_factory=lambda: Series.of([], 3))
     odom: Series = field(default_factory=lambda: Series.of([], 6))
     torso: Series = field(default_factory=lambda: Series.of([], 2))
     topics: dict[str, str] = field(default_factory=dict)
+
+
+Rows = dict[str, list[tuple[float, list[float]]]]
+"""Samples per series key while reading: (time [s], values)."""
 
 
 def read_run(path: str | Path) -> RunData:
@@ -82,50 +85,16 @@ def read_run(path: str | Path) -> RunData:
     from rclpy.serialization import deserialize_message
     from rosbags.highlevel import AnyReader
 
-    from phri_common.contact import msg_to_contact
-    from wholebody_controller.messages import msg_to_task_state
-
-    rows: dict[str, list[tuple[float, list[float]]]] = defaultdict(list)
+    rows: Rows = defaultdict(list)
     data = RunData()
-    state_prefix = f"/{CONTROLLER}/state/"
     with AnyReader([find_recording(path)]) as reader:
         data.topics = {c.topic: c.msgtype for c in reader.connections}
         wanted = [c for c in reader.connections if c.topic.startswith(
-            ("/contacts/left", "/contacts/right", "/sim/", state_prefix, "/joint_states",
+            ("/contacts/left", "/contacts/right", "/sim/", STATE_PREFIX, "/joint_states",
              "/cmd_vel", "/odom"))]
         for conn, stamp, raw in reader.messages(connections=wanted):
-            t = stamp * 1e-9
-            topic = conn.topic
             msg = deserialize_message(raw, ros_type(conn.msgtype))
-            if topic.startswith("/contacts/"):
-                c = msg_to_contact(msg)
-                link = topic.split("/")[-1]
-                rows["force/" + link].append((t, list(c.force)))
-                rows["torque/" + link].append((t, list(c.torque)))
-                rows["centre/" + link].append((t, list(c.center)))
-                rows["in_contact/" + link].append((t, [float(c.in_contact)]))
-            elif topic.startswith(state_prefix):
-                s = msg_to_task_state(msg)
-                rows["psi/" + topic[len(state_prefix):]].append((t, [s["psi"]]))
-            elif topic.endswith("/wrench"):
-                f = msg.wrench.force
-                rows["true_force/" + topic.split("/")[3]].append((t, [f.x, f.y, f.z]))
-            elif topic.endswith("/center"):
-                p = msg.point
-                rows["true_centre/" + topic.split("/")[3]].append((t, [p.x, p.y, p.z]))
-            elif topic == "/sim/person/poses":
-                if msg.poses:
-                    rows["torso"].append((t, [msg.poses[0].position.x, msg.poses[0].position.y]))
-            elif topic == "/joint_states":
-                data.joint_names = list(msg.name)
-                rows["qd"].append((t, list(msg.velocity)))
-                rows["q"].append((t, list(msg.position)))
-            elif topic == "/cmd_vel":
-                rows["cmd_vel"].append((t, [msg.linear.x, msg.linear.y, msg.angular.z]))
-            elif topic == "/odom":
-                p, q, tw = msg.pose.pose.position, msg.pose.pose.orientation, msg.twist.twist
-                yaw = yaw_from_quaternion(q.w, q.x, q.y, q.z)
-                rows["odom"].append((t, [p.x, p.y, yaw, tw.linear.x, tw.linear.y, tw.angular.z]))
+            _add_sample(conn.topic, msg, stamp * 1e-9, rows, data)
     for link in SKIN_LINKS:
         data.force[link] = Series.of(rows["force/" + link], 3)
         data.torque[link] = Series.of(rows["torque/" + link], 3)
@@ -135,11 +104,48 @@ def read_run(path: str | Path) -> RunData:
         data.true_centre[link] = Series.of(rows["true_centre/" + link], 3)
         data.psi[link] = Series.of(rows["psi/" + link], 1)
     data.joint_velocity = Series.of(rows["qd"], 12)
-    data.joint_position = Series.of(rows["q"], 12)
     data.cmd_vel = Series.of(rows["cmd_vel"], 3)
     data.odom = Series.of(rows["odom"], 6)
     data.torso = Series.of(rows["torso"], 2)
     return data
+
+
+STATE_PREFIX = f"/{CONTROLLER}/state/"
+"""Topic prefix of the controller's per-link task state."""
+
+
+def _add_sample(topic: str, msg: Any, t: float, rows: Rows, data: RunData) -> None:
+    """File one decoded message at time ``t`` [s] under its series key(s)."""
+    from phri_common.contact import msg_to_contact
+    from wholebody_controller.messages import msg_to_task_state
+
+    if topic.startswith("/contacts/"):
+        c = msg_to_contact(msg)
+        link = topic.split("/")[-1]
+        rows["force/" + link].append((t, list(c.force)))
+        rows["torque/" + link].append((t, list(c.torque)))
+        rows["centre/" + link].append((t, list(c.center)))
+        rows["in_contact/" + link].append((t, [float(c.in_contact)]))
+    elif topic.startswith(STATE_PREFIX):
+        rows["psi/" + topic[len(STATE_PREFIX):]].append((t, [msg_to_task_state(msg)["psi"]]))
+    elif topic.endswith("/wrench"):
+        f = msg.wrench.force
+        rows["true_force/" + topic.split("/")[3]].append((t, [f.x, f.y, f.z]))
+    elif topic.endswith("/center"):
+        p = msg.point
+        rows["true_centre/" + topic.split("/")[3]].append((t, [p.x, p.y, p.z]))
+    elif topic == "/sim/person/poses":
+        if msg.poses:
+            rows["torso"].append((t, [msg.poses[0].position.x, msg.poses[0].position.y]))
+    elif topic == "/joint_states":
+        data.joint_names = list(msg.name)
+        rows["qd"].append((t, list(msg.velocity)))
+    elif topic == "/cmd_vel":
+        rows["cmd_vel"].append((t, [msg.linear.x, msg.linear.y, msg.angular.z]))
+    elif topic == "/odom":
+        p, q, tw = msg.pose.pose.position, msg.pose.pose.orientation, msg.twist.twist
+        yaw = yaw_from_quaternion(q.w, q.x, q.y, q.z)
+        rows["odom"].append((t, [p.x, p.y, yaw, tw.linear.x, tw.linear.y, tw.angular.z]))
 
 
 def _norm(s: Series) -> FloatArray:
@@ -200,9 +206,24 @@ def make_plots(recording: str | Path, out_dir: str | Path, scenario: str | None 
     data = read_run(recording)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    files = []
-    axes_xyz = ("x", "y", "z")
+    files = [panel(data, out) for panel in (_force_panel, _torque_panel, _centre_panel,
+                                            _psi_panel, _arm_panel, _base_panel)]
+    numbers = key_numbers(data)
+    if scenario is None:
+        share = numbers["links"][WALTZ_LINK]["contact_share"]
+        scenario = "waltz" if len(data.torso.t) and numbers.get("torso_travel", 0.0) > 0.1 \
+            and share > 0.2 else ""
+    if scenario == "waltz":
+        files += _waltz_panels(data, out, numbers)
+    numbers["scenario"] = scenario
+    (out / "plots.json").write_text(json.dumps(numbers, indent=2) + "\n", encoding="utf-8")
+    return files, numbers
 
+
+AXES_XYZ = ("x", "y", "z")
+
+
+def _force_panel(data: RunData, out: Path) -> Path:
     fig, axes = _figure(3, "Resultant contact force ‖f_η‖ (eq. 9a)")
     for ax, link in zip(axes, SKIN_LINKS, strict=True):
         ax.plot(data.force[link].t, _norm(data.force[link]), label="estimated")
@@ -212,32 +233,38 @@ def make_plots(recording: str | Path, out_dir: str | Path, scenario: str | None 
         ax.set_ylabel(f"{link}\n[N]")
         ax.legend(loc="upper right", fontsize=7)
     axes[-1].set_xlabel("time [s]")
-    files.append(_save(fig, out / "contact_force.png"))
+    return _save(fig, out / "contact_force.png")
 
+
+def _torque_panel(data: RunData, out: Path) -> Path:
     fig, axes = _figure(3, "Torque about the contact centre τ_η (eq. 9b), link frame")
     for ax, link in zip(axes, SKIN_LINKS, strict=True):
         for k in range(3):
-            ax.plot(data.torque[link].t, data.torque[link].v[:, k], label=f"τ_{axes_xyz[k]}")
+            ax.plot(data.torque[link].t, data.torque[link].v[:, k], label=f"τ_{AXES_XYZ[k]}")
         ax.set_ylabel(f"{link}\n[N·m]")
         ax.legend(loc="upper right", fontsize=7)
     axes[-1].set_xlabel("time [s]")
-    files.append(_save(fig, out / "contact_torque.png"))
+    return _save(fig, out / "contact_torque.png")
 
+
+def _centre_panel(data: RunData, out: Path) -> Path:
     fig, axes = _figure(3, "Contact centre p_η (eq. 5), link frame; dashed: true")
     for ax, link in zip(axes, SKIN_LINKS, strict=True):
         c, touched = data.centre[link], data.in_contact[link]
         mask = touched.v[:, 0] > 0 if len(touched.t) else np.zeros(0, bool)
         for k in range(3):
             y = np.where(mask, c.v[:, k], np.nan) if len(c.t) else c.v[:, k]
-            line = ax.plot(c.t, y, label=f"{axes_xyz[k]}")[0]
+            line = ax.plot(c.t, y, label=f"{AXES_XYZ[k]}")[0]
             tc = data.true_centre[link]
             if len(tc.t):
                 ax.plot(tc.t, tc.v[:, k], "--", color=line.get_color(), linewidth=0.8)
         ax.set_ylabel(f"{link}\n[m]")
         ax.legend(loc="upper right", fontsize=7)
     axes[-1].set_xlabel("time [s]")
-    files.append(_save(fig, out / "contact_centre.png"))
+    return _save(fig, out / "contact_centre.png")
 
+
+def _psi_panel(data: RunData, out: Path) -> Path:
     fig, axes = _figure(1, "Weight ψ (eq. 15) per contact link")
     for link in SKIN_LINKS:
         axes[0].semilogy(data.psi[link].t, np.maximum(data.psi[link].v[:, 0], 1e-6)
@@ -245,8 +272,10 @@ def make_plots(recording: str | Path, out_dir: str | Path, scenario: str | None 
     axes[0].set_ylabel("ψ [-]")
     axes[0].set_xlabel("time [s]")
     axes[0].legend(fontsize=7)
-    files.append(_save(fig, out / "priority_psi.png"))
+    return _save(fig, out / "priority_psi.png")
 
+
+def _arm_panel(data: RunData, out: Path) -> Path:
     fig, axes = _figure(2, "Arm joint velocities (Table II bound ±0.15 rad/s)")
     names = data.joint_names or [f"joint {i}" for i in range(12)]
     for a, (ax, arm) in enumerate(zip(axes, ARMS, strict=True)):
@@ -260,8 +289,10 @@ def make_plots(recording: str | Path, out_dir: str | Path, scenario: str | None 
         ax.set_ylabel(f"{arm} arm\n[rad/s]")
         ax.legend(loc="upper right", fontsize=6, ncol=3)
     axes[-1].set_xlabel("time [s]")
-    files.append(_save(fig, out / "arm_joint_velocities.png"))
+    return _save(fig, out / "arm_joint_velocities.png")
 
+
+def _base_panel(data: RunData, out: Path) -> Path:
     fig, axes = _figure(3, "Base velocity (base frame): commanded and measured")
     labels = ("v_x [m/s]", "v_y [m/s]", "ω_z [rad/s]")
     for k, ax in enumerate(axes):
@@ -270,18 +301,7 @@ def make_plots(recording: str | Path, out_dir: str | Path, scenario: str | None 
         ax.set_ylabel(labels[k])
         ax.legend(loc="upper right", fontsize=7)
     axes[-1].set_xlabel("time [s]")
-    files.append(_save(fig, out / "base_velocity.png"))
-
-    numbers = key_numbers(data)
-    if scenario is None:
-        share = numbers["links"][WALTZ_LINK]["contact_share"]
-        scenario = "waltz" if len(data.torso.t) and numbers.get("torso_travel", 0.0) > 0.1 \
-            and share > 0.2 else ""
-    if scenario == "waltz":
-        files += _waltz_panels(data, out, numbers)
-    numbers["scenario"] = scenario
-    (out / "plots.json").write_text(json.dumps(numbers, indent=2) + "\n", encoding="utf-8")
-    return files, numbers
+    return _save(fig, out / "base_velocity.png")
 
 
 def _waltz_panels(data: RunData, out: Path, numbers: dict[str, Any]) -> list[Path]:

@@ -83,7 +83,7 @@ def test_runner_nodes_and_parameters_match_the_graph(ros_context: Any, scenario:
     """The in-process nodes are the graph's in-process nodes and hold the file's values."""
     from phri_bringup.session import run_session
 
-    specs = graph.in_process_nodes(graph.sim_graph(scenario))
+    specs = [n for n in graph.sim_graph(scenario) if n.in_process]
     sections = params.load(graph.config_file(graph.scenario_file(scenario)))
     seen: dict[str, dict[str, Any]] = {}
 

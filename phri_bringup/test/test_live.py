@@ -7,6 +7,23 @@ from pathlib import Path
 
 import pytest
 
+from phri_bringup.graph import PATCHES
+
+GUIDE = Path(__file__).resolve().parents[2] / "docs" / "bringup.md"
+
+
+def _documented_channels() -> set[str]:
+    """Channel names of the Foxglove table in docs/bringup.md (``<patch>`` per skin patch)."""
+    lines = GUIDE.read_text(encoding="utf-8").splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("| channel | schema |"))
+    names = set()
+    for line in lines[start + 2:]:
+        if not line.startswith("|"):
+            break
+        name = line.split("|")[1].strip().strip("`")
+        names |= {name.replace("<patch>", p) for p in PATCHES} if "<patch>" in name else {name}
+    return names
+
 
 def _listening_addresses(port: int) -> set[str]:
     """Local addresses (hex, /proc/net/tcp) listening on ``port``."""
@@ -32,6 +49,8 @@ def test_server_starts_on_localhost_and_advertises_channels() -> None:
         assert sink.port > 0
         assert _listening_addresses(sink.port) == {"0100007F"}  # 127.0.0.1 only
         topics: set[str] = set()
+        documented = _documented_channels()
+        assert len(documented) == 4 + len(PATCHES)
         protocols = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
         with websockets.connect(f"ws://127.0.0.1:{sink.port}", subprotocols=protocols,
                                 open_timeout=5) as ws:
@@ -41,9 +60,9 @@ def test_server_starts_on_localhost_and_advertises_channels() -> None:
                     doc = json.loads(msg)
                     if doc.get("op") == "advertise":
                         topics |= {c["topic"] for c in doc["channels"]}
-                if set(sink.channel_topics()) <= topics:
+                if documented <= topics:
                     break
-        assert set(sink.channel_topics()) <= topics
+        assert topics == documented
     finally:
         sink.close()
 

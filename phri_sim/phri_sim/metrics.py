@@ -83,7 +83,7 @@ class MetricsRecorder:
         t = sim.time
         self.times.append(t)
         q = sim.q
-        bad_joint = _outside(q, sim.position_limits, POSITION_TOLERANCE)
+        bad_joint = _outside(q, sim.robot.position_limits, POSITION_TOLERANCE)
         bad_band = False
         if self.position_ranges is not None:
             bad_band = _outside(q, self.position_ranges, POSITION_TOLERANCE)

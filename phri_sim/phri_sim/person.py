@@ -81,11 +81,6 @@ class SoftTissue:
     damping: float
     travel: float = 0.03
 
-    @property
-    def damping_ratio(self) -> float:
-        """ζ = D_t / (2 √(K_t m)) of the layer on its springs."""
-        return self.damping / (2.0 * math.sqrt(self.stiffness * self.mass))
-
 
 @dataclass(frozen=True)
 class BodyPartSpec:

@@ -30,12 +30,13 @@ import json
 import math
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import rclpy
+from numpy.typing import NDArray
 from rclpy.context import Context
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -48,7 +49,7 @@ from phri_common.records import ContactState
 from phri_description.description import SKIN_LINKS
 from phri_sim.bridge import SimBridgeNode
 from phri_sim.metrics import MetricsRecorder
-from phri_sim.scenarios import SCENARIOS
+from phri_sim.scenarios import SCENARIOS, Scenario
 
 Recorder = Callable[[Context], Node]
 Progress = Callable[[float, float], None]
@@ -102,8 +103,53 @@ class ZeroCommandStub(Node):
             pub.publish(Float64MultiArray(data=[0.0] * 6))
 
 
+FloatArray = NDArray[np.float64]
+
+
 def _params(values: dict[str, Any]) -> list[Parameter]:
     return [Parameter(name, value=value) for name, value in values.items()]
+
+
+def _estimation_node(context: Context, scenario: Scenario) -> Node:
+    """The contact estimation node with the scenario's parameters, on sim time, no markers."""
+    from contact_estimation.node import ContactEstimationNode
+
+    return ContactEstimationNode(context=context, parameter_overrides=[
+        Parameter("use_sim_time", value=True), Parameter("publish_markers", value=False),
+        *_params(scenario.estimation_parameters),
+    ])
+
+
+def _controller_node(kind: str, context: Context, scenario: Scenario) -> Node:
+    """The whole-body controller node (``kind`` 'node') with the scenario's parameters and the
+    runner's input timeouts, or the zero-command stub ('stub'), on sim time."""
+    sim_time = Parameter("use_sim_time", value=True)
+    if kind == "node":
+        from wholebody_controller.node import WholeBodyControllerNode
+
+        params = {
+            **scenario.controller_parameters,
+            "contact_timeout": RUNNER_INPUT_TIMEOUT,
+            "joint_state_timeout": RUNNER_INPUT_TIMEOUT,
+            "odom_timeout": RUNNER_INPUT_TIMEOUT,
+        }
+        return WholeBodyControllerNode(context=context,
+                                       parameter_overrides=[sim_time, *_params(params)])
+    if kind == "stub":
+        return ZeroCommandStub(context=context, parameter_overrides=[sim_time])
+    raise ValueError(f"controller must be 'node' or 'stub', got {kind!r}")
+
+
+def _dance_ranges(params: Mapping[str, Any]) -> FloatArray | None:
+    """(15, 2) joint bands q_dance ± q_dance_range [rad] for the arms (base unbounded) when the
+    controller's ``q_dance_enabled``; else ``None``."""
+    if not params.get("q_dance_enabled"):
+        return None
+    q = np.array(params["q_dance"], dtype=np.float64)
+    r = float(params["q_dance_range"])
+    ranges = np.full((15, 2), [-np.inf, np.inf])
+    ranges[3:, 0], ranges[3:, 1] = q - r, q + r
+    return ranges
 
 
 class ScenarioRun:
@@ -133,7 +179,6 @@ class ScenarioRun:
         )
         self.context = context
         self.progress = progress
-        sim_time = Parameter("use_sim_time", value=True)
         self.bridge = SimBridgeNode(context=context, parameter_overrides=[
             Parameter("lockstep", value=True), Parameter("scenario", value=name),
             Parameter("seed", value=seed), Parameter("skin_rate_hz", value=skin_rate_hz),
@@ -141,29 +186,8 @@ class ScenarioRun:
             Parameter("skin_idle_decimation", value=skin_idle_decimation),
             Parameter("physics_timestep", value=physics_timestep),
         ])
-        from contact_estimation.node import ContactEstimationNode
-
-        self.estimation = ContactEstimationNode(context=context, parameter_overrides=[
-            sim_time, Parameter("publish_markers", value=False),
-            *_params(sc.estimation_parameters),
-        ])
-        controller_params = {
-            **sc.controller_parameters,
-            "contact_timeout": RUNNER_INPUT_TIMEOUT,
-            "joint_state_timeout": RUNNER_INPUT_TIMEOUT,
-            "odom_timeout": RUNNER_INPUT_TIMEOUT,
-        }
-        self.controller: Node
-        if controller == "node":
-            from wholebody_controller.node import WholeBodyControllerNode
-
-            self.controller = WholeBodyControllerNode(
-                context=context, parameter_overrides=[sim_time, *_params(controller_params)]
-            )
-        elif controller == "stub":
-            self.controller = ZeroCommandStub(context=context, parameter_overrides=[sim_time])
-        else:
-            raise ValueError(f"controller must be 'node' or 'stub', got {controller!r}")
+        self.estimation = _estimation_node(context, sc)
+        self.controller = _controller_node(controller, context, sc)
         self.is_stub = controller == "stub"
         self.probe = Node("phri_sim_runner", context=context)
         # The real controller already decodes every contact state it is sent: the runner reads
@@ -182,14 +206,10 @@ class ScenarioRun:
         self.executor = EventsExecutor(context=context)
         for node in (self.bridge, self.estimation, self.controller, self.probe, *self.extra):
             self.executor.add_node(node)
-        ranges = None
-        if sc.controller_parameters.get("q_dance_enabled"):
-            q = np.array(sc.controller_parameters["q_dance"], dtype=np.float64)
-            r = float(sc.controller_parameters["q_dance_range"])
-            ranges = np.full((15, 2), [-np.inf, np.inf])
-            ranges[3:, 0], ranges[3:, 1] = q - r, q + r
-        limit = float(sc.controller_parameters.get("velocity_limit", paper.VELOCITY_LIMIT))
-        self.metrics = MetricsRecorder(sc.metrics, limit, ranges)
+        self.metrics = MetricsRecorder(
+            sc.metrics, float(sc.controller_parameters.get("velocity_limit", paper.VELOCITY_LIMIT)),
+            _dance_ranges(sc.controller_parameters),
+        )
         self._last_command = np.zeros(15)
         self._fresh_links: set[str] = set(SKIN_LINKS)
         self.wall_time = 0.0
@@ -235,7 +255,7 @@ class ScenarioRun:
         marks = self._marks()
         bridge.advance(1, clock=False)
         stamp = bridge.stamp_ns
-        patch_link = bridge.sim.patch_link
+        patch_link = bridge.sim.skins.patch_link
         self._fresh_links = {patch_link[p] for p in bridge.published_patches}
         self._spin_until(lambda: self._inputs_ready(stamp, marks), "sensor data")
         before = dict(bridge.commands_received)
@@ -244,9 +264,7 @@ class ScenarioRun:
             lambda: all(bridge.commands_received[k] > before[k] for k in before),
             "controller commands",
         )
-        wd = bridge.sim.watchdog
-        t = bridge.sim.time
-        self._last_command = np.concatenate([wd.current(k, t) for k in ("base", "left", "right")])
+        self._last_command = bridge.sim.watchdog.received(bridge.sim.time)
         self.metrics.sample(bridge.sim, self._last_command, self.estimates)
 
     def run(self) -> dict[str, Any]:

@@ -24,7 +24,7 @@ then clipped at 0 (the convention: ``force`` ≥ 0 presses on the taxel).
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -147,14 +147,6 @@ class SkinPatchModel:
         self.positions = layout.positions
         self.normals = layout.normals
         self.size = layout.size
-        # Cheap reject: a contact farther than this from the patch centre cannot touch a taxel.
-        centre = self.positions.mean(axis=0)
-        self._centre = centre
-        self._reach = float(np.max(np.linalg.norm(self.positions - centre, axis=1)))
-
-    def taxels_in_world(self, rotation: FloatArray, position: FloatArray) -> FloatArray:
-        """(N, 3) taxel centres in the world for the link pose (⁰R_i, ⁰p_i) [m]."""
-        return np.asarray(self.positions @ rotation.T + position)
 
     def forces(
         self,
@@ -193,7 +185,3 @@ class SkinPatchModel:
         noisy = forces + rng.normal(0.0, self.config.noise_std, self.size)
         return np.asarray(np.maximum(noisy, 0.0))
 
-
-def patch_layouts(patches: Sequence[CylindricalPatch]) -> dict[str, SkinLayout]:
-    """Layouts of several patches by patch name."""
-    return {p.name: layout_for_patch(p) for p in patches}

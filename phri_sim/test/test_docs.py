@@ -13,3 +13,12 @@ DOC = Path(__file__).resolve().parents[2] / "docs" / "phri_sim.md"
 def test_parameter_table_matches_the_code() -> None:
     """Every row (name, type, unit, default, range, description), in order, none extra."""
     assert_parameter_table(DOC, PARAMS)
+
+
+def test_every_module_is_in_the_pieces_table() -> None:
+    text = DOC.read_text(encoding="utf-8")
+    package = Path(__file__).resolve().parents[1] / "phri_sim"
+    modules = sorted(p.name for p in package.glob("*.py") if p.name != "__init__.py")
+    missing = [m for m in modules if f"| `{m}` |" not in text]
+    assert len(modules) >= 12
+    assert not missing, f"modules missing from docs/phri_sim.md's table: {missing}"

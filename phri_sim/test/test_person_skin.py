@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from phri_description.description import robot_description
 from phri_sim.person import LEFT_HAND, PartTarget
 from phri_sim.scenarios import Q_HOME, press_geometry
-from phri_sim.sim import CommandError, CommandWatchdog, SimConfig, Simulation
+from phri_sim.sim import SimConfig, Simulation
 from phri_sim.skin import (
     CapsuleShape,
     SkinConfig,
@@ -98,7 +98,7 @@ def test_taxel_total_equals_spring_force_within_2_percent() -> None:
     sim, target = _pressed_sim()
     hand, _ = sim.part_pose("person_right_hand")
     spring = LEFT_HAND.stiffness * (target.position - hand)
-    forces = sim.skin_forces(noise=False)["right_forearm"]
+    forces = sim.skins.forces(noise=False)["right_forearm"]
     assert np.linalg.norm(spring) == pytest.approx(12.0, rel=0.1)
     assert forces.sum() == pytest.approx(np.linalg.norm(spring), rel=0.02)
     # The resultant of the taxels' normal forces on the link is the spring's push.
@@ -112,7 +112,7 @@ def test_taxel_total_equals_spring_force_within_2_percent() -> None:
 
 def test_pressed_link_reports_taxels_where_touched_and_nowhere_else() -> None:
     sim, _ = _pressed_sim(noise=0.005)
-    frames = sim.skin_forces()
+    frames = sim.skins.forces()
     threshold = 0.05  # contact estimation's default σ_t
     for name, forces in frames.items():
         lit = forces > threshold
@@ -155,18 +155,6 @@ def test_robot_yields_and_force_falls() -> None:
     assert after < 0.5 * before
 
 
-def test_watchdog_zeroes_stale_and_refuses_nan() -> None:
-    wd = CommandWatchdog(0.1)
-    wd.set("left", np.ones(6), 1.0)
-    np.testing.assert_array_equal(wd.current("left", 1.05), np.ones(6))
-    np.testing.assert_array_equal(wd.current("left", 1.2), np.zeros(6))
-    with pytest.raises(CommandError):
-        wd.set("base", np.array([np.nan, 0.0, 0.0]), 1.0)
-    np.testing.assert_array_equal(wd.current("base", 1.0), np.zeros(3))
-    with pytest.raises(CommandError):
-        wd.set("right", np.ones(5), 1.0)
-
-
 def test_body_twist_is_followed_in_the_body_frame() -> None:
     sim = Simulation(SimConfig(skin=SkinConfig(noise_std=0.0)))
     q = np.array(Q_HOME)
@@ -181,6 +169,34 @@ def test_body_twist_is_followed_in_the_body_frame() -> None:
     np.testing.assert_allclose(sim.base_twist(), [0.1, 0.0, 0.0], atol=2e-3)
 
 
+@pytest.mark.parametrize("yaw", [0.4, -2.0])
+def test_sideways_twist_turns_with_the_yaw(yaw: float) -> None:
+    """(v_x, v_y) in the base frame moves the base along R(yaw) (v_x, v_y) in the world."""
+    sim = Simulation(SimConfig(skin=SkinConfig(noise_std=0.0)))
+    q = np.array(Q_HOME)
+    q[2] = yaw
+    sim.reset(q)
+    twist = np.array([0.04, -0.08, 0.0])
+    for _ in range(100):
+        sim.command("base", twist)
+        sim.step(5)
+    c, s = np.cos(yaw), np.sin(yaw)
+    world = np.array([c * twist[0] - s * twist[1], s * twist[0] + c * twist[1]])
+    np.testing.assert_allclose(sim.qd[:2], world, atol=2e-3)
+    np.testing.assert_allclose(sim.base_twist(), twist, atol=2e-3)
+
+
+def test_reset_restarts_the_noise_from_the_seed() -> None:
+    sim = Simulation(SimConfig(seed=7))
+    first = sim.skins.forces()
+    sim.step(2)
+    sim.skins.forces()
+    sim.reset()
+    again = sim.skins.forces()
+    for patch, forces in first.items():
+        np.testing.assert_array_equal(again[patch], forces)
+
+
 @settings(max_examples=5, deadline=None)
 @given(st.integers(0, 1000))
 def test_same_seed_same_noise(seed: int) -> None:
@@ -189,6 +205,6 @@ def test_same_seed_same_noise(seed: int) -> None:
     for _ in range(3):
         a.step(2)
         b.step(2)
-        fa, fb = a.skin_forces(), b.skin_forces()
+        fa, fb = a.skins.forces(), b.skins.forces()
         for k in fa:
             np.testing.assert_array_equal(fa[k], fb[k])
