@@ -36,7 +36,7 @@ from phri_common.records import ContactState
 from wholebody_controller.config import SKIN_LINKS, ControllerConfig
 from wholebody_controller.controller import StepResult, WholeBodyController
 from wholebody_controller.kinematics import RobotKinematics
-from wholebody_controller.qp import QPSolver, make_solver
+from wholebody_controller.qp import QPBuilder, QPSolver, make_solver
 
 Q_HOME = np.array([0.0, 0.0, 0.0,
                    0.3, -1.2, 1.5, -1.0, -1.57, 0.0,
@@ -159,7 +159,10 @@ def controller_cases(repeats: int) -> dict[str, Case]:
     ctl = WholeBodyController(kin)
     res = ctl.step(Q_HOME, contact_seq[0])
     points = [task.jacobian_point for task in ctl.tasks]
-    blocks = ctl._jacobian_blocks
+    # The bench's own buffers, shaped as the controller's (stacked 6×15 blocks, 15×15 rotation).
+    raw_jacobian = np.zeros((6 * len(SKIN_LINKS), 15))
+    blocks = [raw_jacobian[6 * i : 6 * i + 6] for i in range(len(SKIN_LINKS))]
+    base_rotation = np.eye(15)
 
     def kinematics(_k: int) -> None:
         kin.update(Q_HOME)
@@ -182,15 +185,17 @@ def controller_cases(repeats: int) -> dict[str, Case]:
     cases["    3 tasks: (10)-(20) + Algorithm 1"] = tasks
     target = np.concatenate([t.target for t in res.tasks])
     weights = np.repeat([2.0 * max(t.psi, 0.3) for t in res.tasks], 6)[:, None]
-    builder = ctl._builder
+    builder = QPBuilder(6 * len(SKIN_LINKS), 15)
+    builder.set_limits(ctl.position_lower, ctl.position_upper, ctl.velocity_lower,
+                       ctl.velocity_upper, ctl.config.horizon, ctl.config.epsilon)
 
     def build(_k: int) -> None:
-        jacobian = np.dot(ctl._raw_jacobian, ctl._base_rotation)
+        jacobian = np.dot(raw_jacobian, base_rotation)
         builder.build(Q_HOME, target, weights, jacobian)
 
     cases["    QP build (22)-(23)"] = build
     problem = builder.build(Q_HOME, target, weights,
-                            np.dot(ctl._raw_jacobian, ctl._base_rotation))
+                            np.dot(raw_jacobian, base_rotation))
     for name in ("daqp", "osqp"):
         solver = make_solver(name)
 

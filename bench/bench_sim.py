@@ -50,7 +50,7 @@ def _phases(run: Any) -> dict[str, list[float]]:
     """Wrap the run's lock-step phases with timers (same calls as ScenarioRun.step)."""
     phases: dict[str, list[float]] = {"advance": [], "sensors": [], "commands": []}
     bridge = run.bridge
-    advance, spin_until = bridge.advance, run._spin_until
+    advance, spin_until = bridge.advance, run.spin_until
     last = [0.0]
 
     def timed_advance(*args: Any, **kwargs: Any) -> None:
@@ -66,7 +66,7 @@ def _phases(run: Any) -> dict[str, list[float]]:
         phases[key].append(time.perf_counter() - t0)
 
     bridge.advance = timed_advance
-    run._spin_until = timed_spin
+    run.spin_until = timed_spin
     return phases
 
 

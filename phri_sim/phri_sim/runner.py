@@ -225,7 +225,9 @@ class ScenarioRun:
         return self._own_estimates if contacts is None else contacts
 
     # -- lock-step phases -----------------------------------------------------------------------
-    def _spin_until(self, condition: Callable[[], bool], what: str) -> None:
+    def spin_until(self, condition: Callable[[], bool], what: str) -> None:
+        """Spin the run's executor until ``condition()`` holds; :class:`LockStepError` naming
+        ``what`` after :data:`SYNC_TIMEOUT` [s] of wall time (public so benchmarks can time it)."""
         deadline = time.monotonic() + SYNC_TIMEOUT
         while not condition():
             if time.monotonic() > deadline:
@@ -257,10 +259,10 @@ class ScenarioRun:
         stamp = bridge.stamp_ns
         patch_link = bridge.sim.skins.patch_link
         self._fresh_links = {patch_link[p] for p in bridge.published_patches}
-        self._spin_until(lambda: self._inputs_ready(stamp, marks), "sensor data")
+        self.spin_until(lambda: self._inputs_ready(stamp, marks), "sensor data")
         before = dict(bridge.commands_received)
         bridge.publish_clock()
-        self._spin_until(
+        self.spin_until(
             lambda: all(bridge.commands_received[k] > before[k] for k in before),
             "controller commands",
         )
@@ -271,7 +273,7 @@ class ScenarioRun:
         """Run to the end; return the metrics (also the run's settings and timing)."""
         periods = round(self.duration / self.bridge.period)
         # Let discovery settle and the nodes see the initial state before the first tick.
-        self._spin_until(lambda: all(
+        self.spin_until(lambda: all(
             self.bridge.count_subscribers(f"skin/{p}/taxels") > 0 for p in self.bridge.sim.patches
         ) and self.bridge.count_subscribers("/clock") > 0, "discovery")
         start = time.perf_counter()

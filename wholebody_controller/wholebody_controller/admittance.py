@@ -80,6 +80,12 @@ class Admittance:
             )
 
     @property
+    def decoupled(self) -> bool:
+        """Whether Φ and Γ are zero outside each axis' (x̃_k, ẋ̃_k) pair (diagonal Λ, D, K):
+        the step then runs per axis."""
+        return self._axes is not None
+
+    @property
     def deflection(self) -> Array:
         """x̃ (14): [m, m, m, rad, rad, rad] (a copy)."""
         return np.array(self._x)
