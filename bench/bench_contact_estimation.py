@@ -126,8 +126,12 @@ def main() -> None:
                 check_forces(t.forces, limit)
                 check_geometry_values(t.positions, t.normals, t.weights)
 
-        rows = [("control step", from_arrays), ("per message ×3", from_messages),
-                ("node path ×3", node_path), ("refusal checks ×3", checks_only)]
+        rows: list[tuple[str, Callable[[], object]]] = [
+            ("control step", from_arrays),
+            ("per message ×3", from_messages),
+            ("node path ×3", node_path),
+            ("refusal checks ×3", checks_only),
+        ]
         for label, fn in rows:
             med, p99 = timeit(fn, args.repeats)
             print(f"{f'3 links × {n:,} taxels ({label})':<44}{med:>10.1f}{p99:>10.1f}")
