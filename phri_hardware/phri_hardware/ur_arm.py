@@ -214,8 +214,13 @@ def validate_command(values: Sequence[float], limits: Sequence[float]) -> tuple[
     return qd
 
 
-def robot_fault(state: ArmState, allow_reduced_safety: bool = False) -> str | None:
-    """Why the robot must not be commanded now, or ``None`` when it may move."""
+def robot_fault(
+    state: ArmState, allow_reduced_safety: bool = False, need_program: bool = True
+) -> str | None:
+    """Why the robot must not be commanded now, or ``None`` when it may move.
+
+    ``need_program=False`` skips the control-script check (monitor mode runs no script).
+    """
     if not state.connected:
         return "not connected"
     if state.emergency_stopped:
@@ -227,7 +232,7 @@ def robot_fault(state: ArmState, allow_reduced_safety: bool = False) -> str | No
         return f"safety mode {mode_name(SafetyMode, state.safety_mode)}"
     if state.robot_mode != RobotMode.RUNNING:
         return f"robot mode {mode_name(RobotMode, state.robot_mode)}"
-    if not state.program_running:
+    if need_program and not state.program_running:
         return "control script not running"
     return None
 
