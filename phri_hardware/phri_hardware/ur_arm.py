@@ -175,11 +175,17 @@ class BridgeConfig:
     def __post_init__(self) -> None:
         if len(self.joint_velocity_limits) != len(UR_JOINTS):
             raise ValueError(f"joint_velocity_limits needs {len(UR_JOINTS)} entries")
-        numbers = (self.rate_hz, self.command_timeout, self.acceleration,
-                   self.stop_deceleration, self.velocity_cap, self.rearm_velocity,
-                   *self.joint_velocity_limits)
-        if not all(math.isfinite(x) and x >= 0.0 for x in numbers) or self.rate_hz <= 0.0:
-            raise ValueError("bridge configuration values must be finite and non-negative")
+        named = [(name, getattr(self, name)) for name in (
+            "rate_hz", "command_timeout", "acceleration", "stop_deceleration", "velocity_cap",
+            "rearm_velocity")]
+        named += [(f"joint_velocity_limits[{j}]", v)
+                  for j, v in enumerate(self.joint_velocity_limits)]
+        for name, value in named:
+            if not (math.isfinite(value) and value >= 0.0) or (name == "rate_hz" and value <= 0):
+                raise ValueError(
+                    f"bridge setting {name} refused value {value!r}: allowed "
+                    f"{'(0' if name == 'rate_hz' else '[0'}, inf), finite"
+                )
 
     @property
     def period(self) -> float:

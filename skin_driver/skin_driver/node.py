@@ -118,7 +118,10 @@ def load_patches(board_ids: Sequence[int], files: Sequence[str]) -> dict[int, Sk
             f"({len(board_ids)}), got {len(files)}"
         )
     if len(set(board_ids)) != len(board_ids):
-        raise ParameterValueError(f"parameter 'board_ids' has duplicates: {list(board_ids)}")
+        raise ParameterValueError(
+            f"parameter 'board_ids' refused value {list(board_ids)}: allowed unique ids in "
+            "[0, 255]"
+        )
     patches: dict[int, SkinLayout] = {}
     for board, path in zip(board_ids, files, strict=True):
         if not path:
@@ -131,7 +134,9 @@ def load_patches(board_ids: Sequence[int], files: Sequence[str]) -> dict[int, Sk
             raise ParameterValueError(f"parameter 'layout_files': {err}") from err
     names = [layout.patch for layout in patches.values()]
     if len(set(names)) != len(names):
-        raise ParameterValueError(f"parameter 'layout_files': duplicate patch names {names}")
+        raise ParameterValueError(
+            f"parameter 'layout_files' refused: the layouts' patch names {names} must be unique"
+        )
     return patches
 
 

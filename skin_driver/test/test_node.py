@@ -340,3 +340,10 @@ def test_bytes_without_a_valid_frame_turn_the_port_warn(ros_context, setup) -> N
         endpoint.close()
         node.destroy_node()
         sub.destroy_node()
+
+
+def test_duplicate_board_ids_are_refused_naming_value_and_rule(tmp_path: Path) -> None:
+    from skin_driver.node import load_patches
+
+    with pytest.raises(ParameterValueError, match=r"'board_ids' refused value \[3, 3\]: .*unique"):
+        load_patches([3, 3], [str(tmp_path / "a.yaml"), str(tmp_path / "b.yaml")])
