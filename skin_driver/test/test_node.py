@@ -207,6 +207,7 @@ def test_bad_parameters_are_refused(ros_context, setup, tmp_path: Path) -> None:
         result = node.set_parameters([Parameter("silence_timeout", value=float("nan"))])[0]
         assert not result.successful and "silence_timeout" in result.reason
         assert node.set_parameters([Parameter("silence_timeout", value=0.5)])[0].successful
+        assert node._silence_timer.timer_period_ns == 250_000_000  # the check follows it
         port, boards = node.snapshot()
         assert not port.connected and boards[0].silent
     finally:
