@@ -117,14 +117,7 @@ def run_arm_loop(
     next_tick = clock()
     try:
         while True:
-            stop = False
-            while conn.poll():
-                message = conn.recv()
-                if message[0] == "cmd":
-                    supervisor.command(message[1], float(message[2]))
-                elif message[0] == "stop":
-                    stop = True
-            if stop:
+            if _feed_commands(conn, supervisor):
                 reason = "stop requested"
                 break
             state = arm.read_state()
@@ -134,13 +127,7 @@ def run_arm_loop(
                 send_nowait(conn, ("failed", "connection lost"))
                 reason = "connection lost"
                 break
-            if (
-                decision.reason == "control script not running"
-                and robot_fault(_with_program(state), config.allow_reduced_safety) is None
-                and now - last_restart >= RESTART_PROGRAM_INTERVAL
-            ):
-                # A protective stop ends ur_rtde's control script; restart it once the robot is
-                # back in RUNNING/NORMAL (the supervisor stays disarmed until a ~zero command).
+            if _script_restart_due(decision, state, config, now - last_restart):
                 last_restart = now
                 arm.restart_program()
             if not apply_decision(arm, decision, config) and decision.action is Action.SPEED_J:
@@ -166,6 +153,30 @@ def run_arm_loop(
         _final_stop(arm, supervisor.shutdown(), config)
         _safe_disconnect(arm)
     return reason
+
+
+def _feed_commands(conn: Connection, supervisor: ArmSupervisor) -> bool:
+    """Hand every waiting command to ``supervisor``; True when the node asked to stop."""
+    stop = False
+    for message in _drain(conn):
+        if message[0] == "cmd":
+            supervisor.command(message[1], float(message[2]))
+        elif message[0] == "stop":
+            stop = True
+    return stop
+
+
+def _script_restart_due(
+    decision: Decision, state: ArmState, config: BridgeConfig, since_last: float
+) -> bool:
+    """A protective stop ends ur_rtde's control script; restart it once the robot is back in
+    RUNNING/NORMAL (the supervisor stays disarmed until a ~zero command), at most every
+    :data:`RESTART_PROGRAM_INTERVAL`."""
+    return (
+        decision.reason == "control script not running"
+        and robot_fault(_with_program(state), config.allow_reduced_safety) is None
+        and since_last >= RESTART_PROGRAM_INTERVAL
+    )
 
 
 def _connect(arm: ArmInterface, conn: Connection, watchdog_frequency: float) -> bool:

@@ -220,7 +220,13 @@ class SkinDriverNode(Node):
         self.create_timer(float(v["diagnostics_period"]), self.publish_diagnostics)
         silence = float(v["silence_timeout"])
         self._silence_timer = self.create_timer(max(silence / 2.0, 0.002), self._check_silence)
-        self._reader = SerialReader(
+        self._reader = self._make_reader(v)
+        self._reader.start()
+        patches = ", ".join(f"{b}→{c.layout.patch}" for b, c in self._channels.items())
+        self.get_logger().info(f"reading {self._url}; boards {patches}")
+
+    def _make_reader(self, v: dict[str, ParamValue]) -> SerialReader:
+        return SerialReader(
             self._url,
             self._on_data,
             baudrate=int(v["baudrate"]),
@@ -233,9 +239,6 @@ class SkinDriverNode(Node):
             on_connect=self._on_connect,
             on_error=self._on_port_error,
         )
-        self._reader.start()
-        patches = ", ".join(f"{b}→{c.layout.patch}" for b, c in self._channels.items())
-        self.get_logger().info(f"reading {self._url}; boards {patches}")
 
     # ------------------------------------------------------------------ serial thread side
 
