@@ -2,9 +2,12 @@
 
 Prints median and p99 for one link of 2,000 / 10,000 / 50,000 taxels, and for the full
 per-control-step work on 3 links: new forces for every patch + one batched estimate of all links
-(``set_forces`` ×3 + ``estimate``), and the per-message path the node runs on each PointCloud2
-(decode + geometry check + forces + estimate). The contact covers a realistic ~10 % of each patch (a
-forearm against a waist); ``--contact-fraction 1`` gives the worst case.
+(``set_forces`` ×3 + ``estimate``), the per-message path on each PointCloud2 (decode + geometry
+comparison + forces + estimate), the node's usual per-message path (the geometry comparison only
+every ``geometry_check_interval`` frames; the refusal checks on every frame), and the refusal
+checks alone (NaN/Inf positions, normals, forces and the ``max_taxel_force`` bound), so their
+share of the per-message cost comes from the same run. The contact covers a realistic ~10 % of
+each patch (a forearm against a waist); ``--contact-fraction 1`` gives the worst case.
 
 Run: ``.venv/bin/python bench/bench_contact_estimation.py [--repeats 2000]``
 """
@@ -17,7 +20,12 @@ from collections.abc import Callable
 
 import numpy as np
 
-from contact_estimation.estimator import ContactEstimator, EstimatorConfig
+from contact_estimation.estimator import (
+    ContactEstimator,
+    EstimatorConfig,
+    check_forces,
+    check_geometry_values,
+)
 from phri_common.taxels import TaxelCloudEncoder, msg_to_taxels
 from phri_description.description import SKIN_LINKS
 from skin_driver.layout import TAXEL_PITCH, cylindrical_patch
@@ -107,10 +115,26 @@ def main() -> None:
             for patch, msg in msgs:
                 est.update(patch, msg_to_taxels(msg))
 
-        med, p99 = timeit(from_arrays, args.repeats)
-        print(f"{f'3 links × {n:,} taxels (control step)':<44}{med:>10.1f}{p99:>10.1f}")
-        med, p99 = timeit(from_messages, args.repeats)
-        print(f"{f'3 links × {n:,} taxels (per message ×3)':<44}{med:>10.1f}{p99:>10.1f}")
+        def node_path(est: ContactEstimator = est, msgs: list = msgs) -> None:
+            for patch, msg in msgs:
+                est.update(patch, msg_to_taxels(msg), check_geometry=False)
+
+        decoded = [msg_to_taxels(msg) for _, msg in msgs]
+
+        def checks_only(frames: list = decoded, limit: float = config.max_taxel_force) -> None:
+            for t in frames:
+                check_forces(t.forces, limit)
+                check_geometry_values(t.positions, t.normals, t.weights)
+
+        rows: list[tuple[str, Callable[[], object]]] = [
+            ("control step", from_arrays),
+            ("per message ×3", from_messages),
+            ("node path ×3", node_path),
+            ("refusal checks ×3", checks_only),
+        ]
+        for label, fn in rows:
+            med, p99 = timeit(fn, args.repeats)
+            print(f"{f'3 links × {n:,} taxels ({label})':<44}{med:>10.1f}{p99:>10.1f}")
 
 
 if __name__ == "__main__":

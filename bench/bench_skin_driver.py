@@ -243,7 +243,7 @@ def main() -> int:
     lat_all = np.concatenate(all_lat) if all_lat else np.array([])
     stamp_all = np.concatenate(all_stamp_lat) if all_stamp_lat else np.array([])
     print(f"  all boards, frame end → subscriber: {_percentiles(lat_all)}")
-    print(f"  all boards, header.stamp (arrival at the driver) → subscriber: "
+    print(f"  all boards, header.stamp (board sampling time, host clock) → subscriber: "
           f"{_percentiles(stamp_all)}")
     return 0
 

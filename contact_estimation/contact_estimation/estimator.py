@@ -20,13 +20,21 @@ fixed by its calibrated layout, so the estimator precomputes, per taxel, the row
 segmented reduction: about ten numpy calls per step whatever the number of links and patches.
 This gives exactly the sums over the union of a link's patches, with no per-taxel Python loop.
 
-Bad input handling (documented in docs/contact_estimation.md):
+Bad input handling (documented in docs/contact_estimation.md), checked on every frame:
 
 * non-finite forces, positions, normals or weights → the frame is refused with
   :class:`InvalidTaxelData` (nothing is updated, the patch keeps its previous frame);
-* negative forces (noise below the tare) are below any threshold σ_t ≥ 0: never in contact;
+* a force beyond the skin's rated range, |force| > ``max_taxel_force`` → refused the same way
+  (a corrupted value: a finite 3e38 N would otherwise pass through as a contact force);
+* an empty cloud → refused (a patch has at least one taxel);
+* negative forces within the range (noise below the tare) are below any threshold σ_t ≥ 0:
+  never in contact;
 * arrays of mismatched size → :class:`InvalidTaxelData`;
 * a patch the estimator was not configured with → :class:`UnknownPatchError`.
+
+The checks are cheap enough for every frame (:func:`check_forces`,
+:func:`check_geometry_values`): a sum test per array (a BLAS product, fTf for the forces, 1ᵀA
+for positions and normals); only a test that fails triggers the exact element-wise check.
 """
 
 from __future__ import annotations
@@ -46,6 +54,14 @@ FloatArray = NDArray[np.floating]
 PAPER_TORQUE_LIMIT = paper.TORQUE_LIMIT
 """The paper limits the estimated torque's third component to 1.2 N·m (Sec. VI-A.1)."""
 
+DEFAULT_MAX_TAXEL_FORCE = 1000.0
+"""Default bound on one taxel's force [N]. A 7.5 mm taxel (56 mm²) at 1000 N is under 18 MPa,
+beyond any skin's rated range (the default calibration saturates at 0.0005 N/count × 64,535
+counts ≈ 32 N) and beyond any contact with a person; a larger value is a corrupted reading."""
+
+MAX_TAXEL_FORCE_RANGE = (1.0, 1.0e6)
+"""Allowed range of ``max_taxel_force`` [N]."""
+
 
 class InvalidTaxelData(ValueError):
     """A patch frame holds NaN/Inf values or arrays of inconsistent size; it was refused."""
@@ -64,20 +80,33 @@ class EstimatorConfig:
         torque_limit: per-axis bound on |ᶦτ_η| [N·m] in the link frame (the paper clamps the third
             component to 1.2; ``inf`` = no limit). The estimated torque is clamped to
             ``[-limit, limit]`` on each axis.
+        max_taxel_force: the skin's rated range [N]: a frame with any |force| above it is
+            refused as corrupted (:data:`DEFAULT_MAX_TAXEL_FORCE`).
     """
 
     force_threshold: float = 0.05
     torque_limit: tuple[float, float, float] = PAPER_TORQUE_LIMIT
+    max_taxel_force: float = DEFAULT_MAX_TAXEL_FORCE
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.force_threshold) and self.force_threshold >= 0.0):
             raise ValueError(
-                f"force_threshold must be finite and ≥ 0 N, got {self.force_threshold}"
+                f"force_threshold [N] refused value {self.force_threshold}: allowed range "
+                "[0, inf), finite"
             )
         if len(self.torque_limit) != 3 or any(
             math.isnan(t) or t < 0.0 for t in self.torque_limit
         ):
-            raise ValueError(f"torque_limit must be 3 values ≥ 0 N·m, got {self.torque_limit}")
+            raise ValueError(
+                f"torque_limit [N·m] refused value {self.torque_limit}: allowed 3 values in "
+                "[0, inf]"
+            )
+        low, high = MAX_TAXEL_FORCE_RANGE
+        if not low <= self.max_taxel_force <= high:  # also refuses NaN
+            raise ValueError(
+                f"max_taxel_force [N] refused value {self.max_taxel_force}: allowed range "
+                f"[{low:g}, {high:g}]"
+            )
 
 
 # Geometry rows per taxel (see module docstring). Without per-taxel weights ω p = p and Σ ω is the
@@ -111,9 +140,9 @@ def _geometry_rows(
     return rows
 
 
-def _check_frame(
+def _check_shapes(
     positions: FloatArray, normals: FloatArray, forces: FloatArray, weights: FloatArray | None
-) -> None:
+) -> int:
     n = forces.shape[0] if forces.ndim == 1 else -1
     if (
         n < 0
@@ -126,9 +155,80 @@ def _check_frame(
             f"{normals.shape}, forces {forces.shape}, weights "
             f"{None if weights is None else weights.shape}"
         )
-    if not math.isfinite(float(np.add.reduce(forces, dtype=np.float64))):
-        bad = int(np.count_nonzero(~np.isfinite(forces)))
-        raise InvalidTaxelData(f"{bad} of {n} taxel forces are NaN or infinite")
+    if n == 0:
+        raise InvalidTaxelData("empty taxel cloud: a patch has at least one taxel")
+    return n
+
+
+_ONES: dict[tuple[int, np.dtype], FloatArray] = {}
+
+
+def _ones(n: int, dtype: np.dtype) -> FloatArray:
+    """A cached vector of n ones (the summing vector of the sum tests)."""
+    ones = _ONES.get((n, dtype))
+    if ones is None:
+        if len(_ONES) >= 64:
+            _ONES.clear()
+        ones = _ONES[(n, dtype)] = np.ones(n, dtype=dtype)
+    return ones
+
+
+def check_forces(forces: FloatArray, max_force: float) -> None:
+    """Refuse NaN/Inf forces and forces beyond ``±max_force`` [N].
+
+    Cheap test first: ``‖f‖² = fᵀf`` (one BLAS dot). Every |fᵢ| ≤ ‖f‖, so ‖f‖ ≤ ``max_force``
+    proves every force finite and within the range; NaN/Inf or an overflow fail the test. Only
+    then does the element-wise check run, which clears a false alarm (many forces that are
+    each within range) or names what is wrong.
+
+    Raises:
+        InvalidTaxelData: how many forces are bad, the worst value and the allowed range.
+    """
+    with np.errstate(all="ignore"):
+        norm2 = float(forces @ forces)
+    if norm2 <= max_force * max_force:
+        return
+    n = forces.shape[0]
+    nonfinite = int(np.count_nonzero(~np.isfinite(forces)))
+    if nonfinite:
+        raise InvalidTaxelData(f"{nonfinite} of {n} taxel forces are NaN or infinite")
+    f_min, f_max = float(forces.min()), float(forces.max())
+    if -max_force <= f_min and f_max <= max_force:
+        return
+    over = int(np.count_nonzero(np.abs(forces) > max_force))
+    worst = f_max if abs(f_max) >= abs(f_min) else f_min
+    raise InvalidTaxelData(
+        f"{over} of {n} taxel forces beyond the skin's rated range (max_taxel_force): "
+        f"{worst:.6g} N, allowed [{-max_force:g}, {max_force:g}] N"
+    )
+
+
+def check_geometry_values(
+    positions: FloatArray, normals: FloatArray, weights: FloatArray | None
+) -> None:
+    """Refuse NaN/Inf positions, normals or weights.
+
+    Cheap test first: the sum of every element, ``1ᵀ P 1 + 1ᵀ N 1 (+ Σ ω)`` (one BLAS call per
+    (N, 3) array, fast on the strided float32 columns of a decoded message, where a plain
+    ``sum`` is about three times slower); a finite sum proves every element finite. Only a sum
+    that is not finite triggers the element-wise check, which clears a false alarm (an
+    overflow of finite values) or names the field.
+
+    Raises:
+        InvalidTaxelData: naming the field and how many taxels are bad.
+    """
+    n = positions.shape[0]
+    ones = _ones(n, positions.dtype)
+    with np.errstate(all="ignore"):
+        total = float(np.add.reduce(ones @ positions + ones @ normals))
+        if weights is not None:
+            total += float(np.add.reduce(weights))
+    if math.isfinite(total):
+        return
+    for name, arr in (("position", positions), ("normal", normals), ("weight", weights)):
+        if arr is not None and not np.isfinite(arr).all():
+            bad = int(np.count_nonzero(~np.isfinite(arr).reshape(n, -1).all(axis=1)))
+            raise InvalidTaxelData(f"{bad} of {n} taxel {name}s are NaN or infinite")
 
 
 def _clamp(value: float, limit: float) -> float:
@@ -213,10 +313,11 @@ class ContactEstimator:
     ) -> None:
         """Set a patch's taxel geometry (link frame) ahead of its first frame."""
         self._patch_link(patch)
-        _check_frame(positions, normals, np.zeros(positions.shape[0]), weights)
-        for name, arr in (("position", positions), ("normal", normals), ("weight", weights)):
-            if arr is not None and not np.isfinite(arr).all():
-                raise InvalidTaxelData(f"patch {patch!r}: a taxel {name} is NaN or infinite")
+        _check_shapes(positions, normals, np.zeros(positions.shape[0]), weights)
+        try:
+            check_geometry_values(positions, normals, weights)
+        except InvalidTaxelData as err:
+            raise InvalidTaxelData(f"patch {patch!r}: {err}") from err
         copy = None if weights is None else np.array(weights, dtype=np.float64)
         if patch in self._columns:  # a new geometry invalidates the patch's old forces
             c0, c1 = self._columns[patch]
@@ -239,14 +340,16 @@ class ContactEstimator:
     def set_forces(self, patch: str, forces: FloatArray, stamp_ns: int) -> None:
         """Hot path: new forces [N] for a patch whose geometry is already set."""
         self._patch_link(patch)
+        if patch not in self._geometry:
+            raise InvalidTaxelData(
+                f"patch {patch!r} has no geometry yet: call set_geometry or update first"
+            )
         c0, c1 = self._columns[patch]
         if forces.shape != (c1 - c0,):
             raise InvalidTaxelData(
                 f"patch {patch!r}: {forces.shape} forces for {c1 - c0} taxels"
             )
-        if not math.isfinite(float(np.add.reduce(forces, dtype=np.float64))):
-            bad = int(np.count_nonzero(~np.isfinite(forces)))
-            raise InvalidTaxelData(f"{bad} of {c1 - c0} taxel forces are NaN or infinite")
+        check_forces(forces, self.config.max_taxel_force)
         self._forces[c0:c1] = forces
         self._stamps[patch] = stamp_ns
 
@@ -257,14 +360,17 @@ class ContactEstimator:
 
         ``check_geometry=False`` skips comparing the frame's positions/normals/weights with the
         known geometry (two array comparisons, ~25 µs for 2,000 taxels); a first frame or a
-        change in taxel count is always taken as new geometry.
+        change in taxel count is always taken as new geometry. The refusals (NaN/Inf anywhere,
+        forces beyond ``max_taxel_force``, an empty cloud) apply to every frame either way.
 
         Raises:
             UnknownPatchError: ``patch`` is not configured.
             InvalidTaxelData: the frame is refused (the patch keeps its previous frame).
         """
         link = self._patch_link(patch)
-        _check_frame(taxels.positions, taxels.normals, taxels.forces, taxels.weights)
+        _check_shapes(taxels.positions, taxels.normals, taxels.forces, taxels.weights)
+        check_forces(taxels.forces, self.config.max_taxel_force)
+        check_geometry_values(taxels.positions, taxels.normals, taxels.weights)
         known = self._geometry.get(patch)
         if (
             known is None
@@ -272,7 +378,9 @@ class ContactEstimator:
             or (check_geometry and self._geometry_changed(known, taxels))
         ):
             self.set_geometry(patch, taxels.positions, taxels.normals, taxels.weights)
-        self.set_forces(patch, taxels.forces, taxels.stamp_ns)
+        c0, c1 = self._columns[patch]
+        self._forces[c0:c1] = taxels.forces  # checked above, shape fixed by the geometry
+        self._stamps[patch] = taxels.stamp_ns
         return self.estimate()[link]
 
     @staticmethod

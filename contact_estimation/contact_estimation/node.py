@@ -10,7 +10,8 @@ Thin wrapper around :class:`contact_estimation.estimator.ContactEstimator`. Inte
 * publishes ``contacts/markers`` (visualization_msgs/MarkerArray) when ``publish_markers``;
 * publishes ``/diagnostics`` (diagnostic_msgs/DiagnosticArray) every ``diagnostics_period``.
 
-A refused frame (malformed message, NaN/Inf, wrong frame_id, wrong size) is counted, reported on
+A refused frame (malformed message, NaN/Inf anywhere, a force beyond ``max_taxel_force``, an
+empty cloud, wrong frame_id, wrong size; checked on every frame) is counted, reported on
 diagnostics and logged (throttled); no contact state is published for it, the node stays up and
 keeps serving every other patch. Downstream treats the missing state as stale.
 """
@@ -30,6 +31,8 @@ from sensor_msgs.msg import PointCloud2
 from visualization_msgs.msg import MarkerArray
 
 from contact_estimation.estimator import (
+    DEFAULT_MAX_TAXEL_FORCE,
+    MAX_TAXEL_FORCE_RANGE,
     PAPER_TORQUE_LIMIT,
     ContactEstimator,
     EstimatorConfig,
@@ -58,14 +61,19 @@ PARAMS: list[ParamSpec] = [
     ParamSpec("torque_limit", list(PAPER_TORQUE_LIMIT), "per-axis bound on |τ| about the "
               "contact centre in the link frame (paper: τ(2) ≤ 1.2); .inf = none", unit="N·m",
               low=0.0, high=math.inf, length=3),
+    ParamSpec("max_taxel_force", DEFAULT_MAX_TAXEL_FORCE, "the skin's rated range: a frame "
+              "with any taxel |force| above it is refused as corrupted (the default skin "
+              "saturates at ≈ 32 N)", unit="N", low=MAX_TAXEL_FORCE_RANGE[0],
+              high=MAX_TAXEL_FORCE_RANGE[1]),
     ParamSpec("publish_markers", True, "publish rviz markers on contacts/markers"),
     ParamSpec("marker_force_scale", 0.01, "force arrow length per newton", unit="m/N",
               low=0.0, high=10.0),
     ParamSpec("marker_torque_scale", 0.1, "torque arrow length per N·m", unit="m/(N·m)",
               low=0.0, high=10.0),
     ParamSpec("geometry_check_interval", 50, "compare a patch's taxel positions/normals with "
-              "the known layout every N-th frame (a changed taxel count is always caught); 1 = "
-              "every frame", unit="frames", low=1, high=1_000_000),
+              "the known layout every N-th frame (a changed taxel count is always caught; "
+              "NaN/Inf values are refused on every frame); 1 = every frame", unit="frames",
+              low=1, high=1_000_000),
     ParamSpec("diagnostics_period", 1.0, "period of the /diagnostics report", unit="s",
               low=0.05, high=3600.0),
 ]
@@ -80,6 +88,7 @@ def config_from_values(values: dict[str, ParamValue]) -> EstimatorConfig:
     return EstimatorConfig(
         force_threshold=float(values["force_threshold"]),
         torque_limit=(float(limit[0]), float(limit[1]), float(limit[2])),
+        max_taxel_force=float(values["max_taxel_force"]),
     )
 
 
@@ -91,10 +100,15 @@ def patch_link_map(patches: Sequence[str], links: Sequence[str]) -> dict[str, st
             "entries) must have the same length"
         )
     if len(set(patches)) != len(patches):
-        raise ValueError(f"parameter 'patches' has duplicate names: {list(patches)}")
+        raise ValueError(
+            f"parameter 'patches' refused value {list(patches)}: names must be unique"
+        )
     bad = [p for p in [*patches, *links] if not p or "/" in p or " " in p]
     if bad:
-        raise ValueError(f"parameters 'patches'/'patch_links': invalid names {bad}")
+        raise ValueError(
+            f"parameters 'patches'/'patch_links' refused names {bad}: allowed non-empty names "
+            "without '/' or spaces"
+        )
     return dict(zip(patches, links, strict=True))
 
 
@@ -142,6 +156,9 @@ class ContactEstimationNode(Node):
         config = config_from_values(values)  # raises ValueError → change refused
         self._estimator.reconfigure(config)
         self._scales = self._marker_scales(values)
+        period = float(values["diagnostics_period"])
+        if period != float(self._values["diagnostics_period"]):
+            self._diag_timer.timer_period_ns = int(period * 1e9)
         self._values = values
 
     def _on_taxels(self, patch: str, msg: PointCloud2) -> None:

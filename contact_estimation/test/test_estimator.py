@@ -210,7 +210,7 @@ coords = st.floats(-0.5, 0.5, allow_nan=False)
 
 
 @settings(max_examples=60, deadline=None)
-@given(data=st.data(), n=st.integers(1, 40), split=st.integers(0, 40))
+@given(data=st.data(), n=st.integers(2, 40), split=st.integers(0, 40))
 def test_two_patches_on_one_link_equal_the_per_taxel_reference(
     data: st.DataObject, n: int, split: int
 ) -> None:
@@ -218,7 +218,7 @@ def test_two_patches_on_one_link_equal_the_per_taxel_reference(
     nrm = data.draw(arrays(np.float64, (n, 3), elements=st.floats(-1, 1)))
     f = data.draw(arrays(np.float64, (n,), elements=st.floats(-1.0, 5.0)))
     w = data.draw(arrays(np.float64, (n,), elements=st.floats(0.1, 3.0)))
-    k = min(split, n)
+    k = 1 + split % (n - 1)  # both patches non-empty: an empty cloud is refused
     est = ContactEstimator({"a": "link", "b": "link"}, NO_LIMIT)
     est.update("a", taxels(p[:k], nrm[:k], f[:k], w[:k], stamp_ns=1))
     state = est.update("b", taxels(p[k:], nrm[k:], f[k:], w[k:], stamp_ns=2))
@@ -304,3 +304,90 @@ def test_geometry_check_can_be_skipped_but_a_new_taxel_count_is_always_caught() 
     np.testing.assert_allclose(checked.center, first.center + np.array([1.0, 0.0, 0.0]))
     fewer = est.update("p", taxels(moved[:30], normals[:30], np.ones(30)), check_geometry=False)
     assert fewer.taxel_count == 30
+
+
+# --- refusals on every frame (issue 11, deliverable 4) -------------------------------------
+
+
+def _f32(positions: np.ndarray, normals: np.ndarray, forces: np.ndarray) -> TaxelArray:
+    """A frame as the node decodes it: float32 strided columns of one (N, 7) table."""
+    table = np.concatenate([positions, normals, forces[:, None]], axis=1).astype(np.float32)
+    return TaxelArray(table[:, 0:3], table[:, 3:6], table[:, 6], None, "link", 0)
+
+
+@pytest.mark.parametrize("field", ["positions", "normals"])
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_non_finite_geometry_is_refused_on_every_frame_even_without_geometry_check(
+    field: str, bad: float
+) -> None:
+    positions, normals = flat_grid()
+    est = ContactEstimator({"p": "link"})
+    good = est.update("p", _f32(positions, normals, np.ones(60)))
+    for frame in range(50):
+        p, n = positions.copy(), normals.copy()
+        (p if field == "positions" else n)[frame % 60, frame % 3] = bad
+        with pytest.raises(InvalidTaxelData, match=f"1 of 60 taxel {field}"):
+            est.update("p", _f32(p, n, np.full(60, 2.0)), check_geometry=False)
+    kept = est.link_state("link")  # nothing of the refused frames was taken
+    np.testing.assert_allclose(kept.force, good.force)
+
+
+def test_huge_but_finite_positions_are_not_a_false_refusal() -> None:
+    # float32 sums of these overflow to inf: the cheap test fails, the exact check must clear it.
+    positions = np.full((4, 3), 3.0e38)
+    normals = np.tile([0.0, 0.0, 1.0], (4, 1))
+    state = ContactEstimator({"p": "link"}, NO_LIMIT).update(
+        "p", _f32(positions, normals, np.ones(4))
+    )
+    assert state.in_contact and state.taxel_count == 4
+
+
+@pytest.mark.parametrize("absurd", [3.0e38, -3.0e38, 1000.001])
+def test_force_beyond_the_rated_range_is_refused(absurd: float) -> None:
+    positions, normals = flat_grid()
+    est = ContactEstimator({"p": "link"})  # default max_taxel_force = 1000 N
+    good = est.update("p", _f32(positions, normals, np.ones(60)))
+    forces = np.ones(60)
+    forces[7] = absurd
+    with pytest.raises(InvalidTaxelData, match=r"1 of 60 .*max_taxel_force.*\[-1000, 1000\]"):
+        est.update("p", _f32(positions, normals, forces), check_geometry=False)
+    with pytest.raises(InvalidTaxelData, match="max_taxel_force"):
+        est.set_forces("p", forces, 5)
+    np.testing.assert_allclose(est.link_state("link").force, good.force)
+
+
+def test_force_at_the_rated_range_is_accepted_and_the_bound_is_configurable() -> None:
+    positions, normals = flat_grid()
+    forces = np.zeros(60)
+    forces[0] = 1000.0
+    state = ContactEstimator({"p": "link"}).update("p", taxels(positions, normals, forces))
+    np.testing.assert_allclose(state.force, [0.0, 0.0, -1000.0])
+    strict = ContactEstimator({"p": "link"}, EstimatorConfig(max_taxel_force=50.0))
+    with pytest.raises(InvalidTaxelData, match=r"\[-50, 50\]"):
+        strict.update("p", taxels(positions, normals, forces))
+
+
+def test_empty_cloud_is_refused_when_a_geometry_is_known() -> None:
+    positions, normals = flat_grid()
+    est = ContactEstimator({"p": "link"})
+    good = est.update("p", taxels(positions, normals, np.ones(60)))
+    for check in (True, False):
+        with pytest.raises(InvalidTaxelData, match="empty"):
+            est.update("p", taxels(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0)), check)
+    kept = est.link_state("link")
+    assert kept.in_contact and kept.taxel_count == good.taxel_count == 60
+    with pytest.raises(InvalidTaxelData, match="empty"):
+        ContactEstimator({"p": "l"}).update(
+            "p", taxels(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
+        )
+
+
+def test_forces_before_any_geometry_are_refused() -> None:
+    with pytest.raises(InvalidTaxelData, match="no geometry"):
+        ContactEstimator({"p": "l"}).set_forces("p", np.zeros(0), 0)
+
+
+@pytest.mark.parametrize("value", [math.nan, 0.5, 2.0e6, math.inf])
+def test_max_taxel_force_out_of_range_names_parameter_value_and_range(value: float) -> None:
+    with pytest.raises(ValueError, match=r"max_taxel_force \[N\] refused value .*\[1, 1e\+06\]"):
+        EstimatorConfig(max_taxel_force=value)

@@ -127,3 +127,38 @@ def test_bad_start_up_parameter_is_refused_with_name_and_range(ros_context) -> N
             parameter_overrides=[Parameter("patches", value=["a", "b"]),
                                  Parameter("patch_links", value=["l"])],
         )
+
+
+def test_nan_geometry_is_refused_on_every_frame_through_the_node(harness) -> None:
+    node, pubs, received, _, executor = harness
+    assert node.get_parameter("geometry_check_interval").value == 50
+    pubs["fore"].publish(TaxelCloudEncoder(POSITIONS, NORMALS, "forearm_link").encode(FORCES, 1))
+    assert spin_until(executor, lambda: len(received["forearm_link"]) == 1, timeout_s=10.0)
+    for k in range(50):  # every frame of a whole geometry-check interval carries one NaN
+        positions, normals = POSITIONS.copy(), NORMALS.copy()
+        (positions if k % 2 else normals)[k % 3, k % 3] = np.nan
+        pubs["fore"].publish(
+            TaxelCloudEncoder(positions, normals, "forearm_link").encode(FORCES, 2 + k)
+        )
+        assert spin_until(
+            executor, lambda k=k: node.refused_frames["fore"] == k + 1, timeout_s=10.0
+        )
+    spin_until(executor, lambda: False, timeout_s=0.2)
+    assert len(received["forearm_link"]) == 1  # not one state from the 50 bad frames
+
+
+def test_max_taxel_force_and_diagnostics_period_take_effect_at_run_time(harness) -> None:
+    node, pubs, received, _, executor = harness
+    encoder = TaxelCloudEncoder(POSITIONS, NORMALS, "forearm_link")
+    pubs["fore"].publish(encoder.encode(FORCES * 100.0, 1))  # 300 N on one taxel: accepted
+    assert spin_until(executor, lambda: len(received["forearm_link"]) == 1, timeout_s=10.0)
+    refused = node.set_parameters([Parameter("max_taxel_force", value=0.1)])[0]
+    assert not refused.successful
+    assert "max_taxel_force" in refused.reason and "0.1" in refused.reason
+    assert "1000000" in refused.reason or "1e+06" in refused.reason  # the allowed range
+    assert node.set_parameters([Parameter("max_taxel_force", value=200.0)])[0].successful
+    pubs["fore"].publish(encoder.encode(FORCES * 100.0, 2))
+    assert spin_until(executor, lambda: node.refused_frames["fore"] == 1, timeout_s=10.0)
+    assert len(received["forearm_link"]) == 1
+    assert node.set_parameters([Parameter("diagnostics_period", value=0.25)])[0].successful
+    assert node._diag_timer.timer_period_ns == 250_000_000

@@ -17,6 +17,14 @@ node only polls. :class:`ArmLink` (node side) kills a worker whose connect excee
 ``connect_timeout`` or whose reports stop for ``report_timeout`` and starts a fresh one after
 ``restart_delay``; the robot's RTDE watchdog stops the arm if the worker stalls while connected.
 If the node dies, the worker sees the socket close (or the commands go stale) and stops the arm.
+
+Monitor mode (:func:`run_monitor_loop`): the worker only reads the robot state and reports it;
+it never calls speedJ, speedStop or the watchdog (a receive-only arm has no control interface),
+and the node forwards no command to it.
+
+Diagnostics keep the root cause: the reason a worker sent with ``("failed", why)`` (e.g. the
+exception text of a failed connect) is what :attr:`LinkStatus.last_error` shows after the
+worker exits, not the bare fact that it exited.
 """
 
 from __future__ import annotations
@@ -45,6 +53,9 @@ from phri_hardware.ur_arm import (
 
 RESTART_PROGRAM_INTERVAL = 2.0
 """Least time between two ``reuploadScript`` attempts after a protective stop [s]."""
+
+MONITOR_HOLD = "monitor mode: receive only, commands are not accepted"
+"""The worker's hold reason in monitor mode."""
 
 
 class ArmFactory(Protocol):
@@ -96,16 +107,8 @@ def run_arm_loop(
 
     Returns why it ended. The arm gets ``speedStop`` on every exit path after connecting.
     """
-    send_nowait(conn, ("connecting",))
-    try:
-        arm.connect()
-        if watchdog_frequency > 0.0:
-            arm.set_watchdog(watchdog_frequency)
-    except Exception as err:  # any failure of the vendor library ends this attempt cleanly
-        send_nowait(conn, ("failed", f"connect failed: {type(err).__name__}: {err}"))
-        _safe_disconnect(arm)
+    if not _connect(arm, conn, watchdog_frequency):
         return "connect failed"
-    send_nowait(conn, ("connected",))
     supervisor = ArmSupervisor(config)
     overruns = 0
     send_failures = 0
@@ -114,14 +117,7 @@ def run_arm_loop(
     next_tick = clock()
     try:
         while True:
-            stop = False
-            while conn.poll():
-                message = conn.recv()
-                if message[0] == "cmd":
-                    supervisor.command(message[1], float(message[2]))
-                elif message[0] == "stop":
-                    stop = True
-            if stop:
+            if _feed_commands(conn, supervisor):
                 reason = "stop requested"
                 break
             state = arm.read_state()
@@ -131,13 +127,7 @@ def run_arm_loop(
                 send_nowait(conn, ("failed", "connection lost"))
                 reason = "connection lost"
                 break
-            if (
-                decision.reason == "control script not running"
-                and robot_fault(_with_program(state), config.allow_reduced_safety) is None
-                and now - last_restart >= RESTART_PROGRAM_INTERVAL
-            ):
-                # A protective stop ends ur_rtde's control script; restart it once the robot is
-                # back in RUNNING/NORMAL (the supervisor stays disarmed until a ~zero command).
+            if _script_restart_due(decision, state, config, now - last_restart):
                 last_restart = now
                 arm.restart_program()
             if not apply_decision(arm, decision, config) and decision.action is Action.SPEED_J:
@@ -165,6 +155,94 @@ def run_arm_loop(
     return reason
 
 
+def _feed_commands(conn: Connection, supervisor: ArmSupervisor) -> bool:
+    """Hand every waiting command to ``supervisor``; True when the node asked to stop."""
+    stop = False
+    for message in _drain(conn):
+        if message[0] == "cmd":
+            supervisor.command(message[1], float(message[2]))
+        elif message[0] == "stop":
+            stop = True
+    return stop
+
+
+def _script_restart_due(
+    decision: Decision, state: ArmState, config: BridgeConfig, since_last: float
+) -> bool:
+    """A protective stop ends ur_rtde's control script; restart it once the robot is back in
+    RUNNING/NORMAL (the supervisor stays disarmed until a ~zero command), at most every
+    :data:`RESTART_PROGRAM_INTERVAL`."""
+    return (
+        decision.reason == "control script not running"
+        and robot_fault(_with_program(state), config.allow_reduced_safety) is None
+        and since_last >= RESTART_PROGRAM_INTERVAL
+    )
+
+
+def _connect(arm: ArmInterface, conn: Connection, watchdog_frequency: float) -> bool:
+    """Connect ``arm`` (and set its watchdog when > 0 Hz); report the outcome to the node."""
+    send_nowait(conn, ("connecting",))
+    try:
+        arm.connect()
+        if watchdog_frequency > 0.0:
+            arm.set_watchdog(watchdog_frequency)
+    except Exception as err:  # any failure of the vendor library ends this attempt cleanly
+        send_nowait(conn, ("failed", f"connect failed: {type(err).__name__}: {err}"))
+        _safe_disconnect(arm)
+        return False
+    send_nowait(conn, ("connected",))
+    return True
+
+
+def run_monitor_loop(
+    arm: ArmInterface,
+    config: BridgeConfig,
+    conn: Connection,
+    clock: Callable[[], float] = time.monotonic,
+    sleep: Callable[[float], None] = time.sleep,
+) -> str:
+    """Monitor mode: connect ``arm`` (receive only) and report its state at ``rate_hz``.
+
+    Never sends a command to the arm (no speedJ, speedStop, watchdog or script upload);
+    commands arriving from the node are discarded. Returns why it ended.
+    """
+    if not _connect(arm, conn, watchdog_frequency=0.0):
+        return "connect failed"
+    counters = SupervisorCounters()
+    reason = "stopped"
+    next_tick = clock()
+    try:
+        while True:
+            if any(message[0] == "stop" for message in _drain(conn)):
+                reason = "stop requested"
+                break
+            state = arm.read_state()
+            if not state.connected:
+                send_nowait(conn, ("failed", "connection lost"))
+                reason = "connection lost"
+                break
+            report = WorkerReport(
+                stamp=clock(), state=state, action=Action.NONE.value, hold_reason=MONITOR_HOLD,
+                armed=False, moving=False, counters=counters, overruns=0, send_failures=0,
+            )
+            send_nowait(conn, ("report", report))
+            next_tick += config.period
+            sleep(max(0.0, next_tick - clock()))
+    except (EOFError, OSError):
+        reason = "node connection closed"
+    finally:
+        _safe_disconnect(arm)
+    return reason
+
+
+def _drain(conn: Connection) -> list[Any]:
+    """Every message waiting on ``conn`` (never blocks)."""
+    messages = []
+    while conn.poll():
+        messages.append(conn.recv())
+    return messages
+
+
 def _with_program(state: ArmState) -> ArmState:
     return ArmState(
         q=state.q, qd=state.qd, robot_mode=state.robot_mode, safety_mode=state.safety_mode,
@@ -185,15 +263,23 @@ def _safe_disconnect(arm: ArmInterface) -> None:
 
 
 def worker_main(
-    factory: ArmFactory, config: BridgeConfig, conn: Connection, watchdog_frequency: float
+    factory: ArmFactory,
+    config: BridgeConfig,
+    conn: Connection,
+    watchdog_frequency: float,
+    monitor: bool = False,
 ) -> None:
-    """Process target: build the arm with ``factory`` and run :func:`run_arm_loop`."""
+    """Process target: build the arm with ``factory`` and run :func:`run_arm_loop` (or
+    :func:`run_monitor_loop` in monitor mode)."""
     try:
         arm = factory()
     except Exception as err:
         send_nowait(conn, ("failed", f"could not create the arm interface: {err}"))
         return
-    run_arm_loop(arm, config, conn, watchdog_frequency)
+    if monitor:
+        run_monitor_loop(arm, config, conn)
+    else:
+        run_arm_loop(arm, config, conn, watchdog_frequency)
 
 
 @dataclass
@@ -222,6 +308,7 @@ class ArmLink:
         restart_delay: wait before the next connection attempt [s].
         watchdog_frequency: ur_rtde watchdog minimum frequency [Hz] (0 = off).
         clock: monotonic clock [s].
+        monitor: run the worker in monitor mode (receive only; commands are not sent).
     """
 
     def __init__(
@@ -233,8 +320,11 @@ class ArmLink:
         restart_delay: float,
         watchdog_frequency: float,
         clock: Callable[[], float] = time.monotonic,
+        monitor: bool = False,
     ) -> None:
         self._factory = factory
+        self.monitor = monitor
+        self._worker_error = ""  # why the current worker failed, as it reported
         self._config = config
         self._connect_timeout = connect_timeout
         self._report_timeout = report_timeout
@@ -255,7 +345,7 @@ class ArmLink:
         parent, child = self._ctx.Pipe(duplex=True)
         process = self._ctx.Process(
             target=worker_main,
-            args=(self._factory, self._config, child, self._watchdog_frequency),
+            args=(self._factory, self._config, child, self._watchdog_frequency, self.monitor),
             daemon=True,
             name="phri_arm_worker",
         )
@@ -263,6 +353,7 @@ class ArmLink:
         child.close()
         self._process, self._conn = process, parent
         self._started_at = self._last_message = self._clock()
+        self._worker_error = ""
         self.status.phase = "connecting"
         self.status.attempts += 1
 
@@ -279,10 +370,10 @@ class ArmLink:
                     self._handle(self._conn.recv(), reports)
                     self._last_message = now
             except (EOFError, OSError):
-                self._end_worker("worker exited", kill=False)
+                self._end_worker(self._worker_error or "worker exited", kill=False)
         if self._process is not None and self.status.phase in ("connecting", "running"):
             if not self._process.is_alive():
-                self._end_worker(self.status.last_error or "worker exited", kill=False)
+                self._end_worker(self._worker_error or "worker exited", kill=False)
             elif (self.status.phase == "connecting"
                   and now - self._started_at > self._connect_timeout):
                 self._end_worker(
@@ -306,7 +397,7 @@ class ArmLink:
             self.status.connected_once = True
             self.status.last_error = ""
         elif kind == "failed":
-            self.status.last_error = str(message[1])
+            self._worker_error = self.status.last_error = str(message[1])
 
     def _end_worker(self, why: str, kill: bool) -> None:
         self.status.last_error = why
@@ -360,6 +451,7 @@ __all__ = [
     "LinkStatus",
     "WorkerReport",
     "run_arm_loop",
+    "run_monitor_loop",
     "send_nowait",
     "worker_main",
 ]

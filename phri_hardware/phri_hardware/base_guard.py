@@ -36,10 +36,14 @@ class BaseGuardConfig:
     command_timeout: float = 0.1
 
     def __post_init__(self) -> None:
-        values = (self.max_linear_x, self.max_linear_y, self.max_planar_speed,
-                  self.max_angular_z, self.command_timeout)
-        if not all(math.isfinite(v) and v >= 0.0 for v in values):
-            raise ValueError("base guard limits must be finite and non-negative")
+        for name in ("max_linear_x", "max_linear_y", "max_planar_speed", "max_angular_z",
+                     "command_timeout"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ValueError(
+                    f"base guard setting {name} refused value {value!r}: allowed [0, inf), "
+                    "finite"
+                )
 
 
 def limit_twist(twist: PlanarTwist, config: BaseGuardConfig) -> tuple[PlanarTwist, float]:

@@ -176,11 +176,17 @@ class BridgeConfig:
     def __post_init__(self) -> None:
         if len(self.joint_velocity_limits) != len(UR_JOINTS):
             raise ValueError(f"joint_velocity_limits needs {len(UR_JOINTS)} entries")
-        numbers = (self.rate_hz, self.command_timeout, self.acceleration,
-                   self.stop_deceleration, self.velocity_cap, self.rearm_velocity,
-                   *self.joint_velocity_limits)
-        if not all(math.isfinite(x) and x >= 0.0 for x in numbers) or self.rate_hz <= 0.0:
-            raise ValueError("bridge configuration values must be finite and non-negative")
+        named = [(name, getattr(self, name)) for name in (
+            "rate_hz", "command_timeout", "acceleration", "stop_deceleration", "velocity_cap",
+            "rearm_velocity")]
+        named += [(f"joint_velocity_limits[{j}]", v)
+                  for j, v in enumerate(self.joint_velocity_limits)]
+        for name, value in named:
+            if not (math.isfinite(value) and value >= 0.0) or (name == "rate_hz" and value <= 0):
+                raise ValueError(
+                    f"bridge setting {name} refused value {value!r}: allowed "
+                    f"{'(0' if name == 'rate_hz' else '[0'}, inf), finite"
+                )
 
     @property
     def period(self) -> float:
@@ -215,8 +221,13 @@ def validate_command(values: Sequence[float], limits: Sequence[float]) -> tuple[
     return qd
 
 
-def robot_fault(state: ArmState, allow_reduced_safety: bool = False) -> str | None:
-    """Why the robot must not be commanded now, or ``None`` when it may move."""
+def robot_fault(
+    state: ArmState, allow_reduced_safety: bool = False, need_program: bool = True
+) -> str | None:
+    """Why the robot must not be commanded now, or ``None`` when it may move.
+
+    ``need_program=False`` skips the control-script check (monitor mode runs no script).
+    """
     if not state.connected:
         return "not connected"
     if state.emergency_stopped:
@@ -228,7 +239,7 @@ def robot_fault(state: ArmState, allow_reduced_safety: bool = False) -> str | No
         return f"safety mode {mode_name(SafetyMode, state.safety_mode)}"
     if state.robot_mode != RobotMode.RUNNING:
         return f"robot mode {mode_name(RobotMode, state.robot_mode)}"
-    if not state.program_running:
+    if need_program and not state.program_running:
         return "control script not running"
     return None
 

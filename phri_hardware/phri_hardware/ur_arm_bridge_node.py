@@ -9,6 +9,10 @@ Run one per arm in the arm's namespace (``left`` / ``right``) with ``joint_prefi
   control period from RTDE receive;
 * publishes ``/diagnostics`` (robot mode, safety mode, connection, counters).
 
+``mode: monitor`` opens RTDE receive only: joint states and robot/safety mode are published,
+every command is refused (counted, logged, diagnostics WARN) and nothing is ever sent to the arm
+(bring-up dry runs; docs/bringup_guide.md).
+
 The node only forwards and publishes: ur_rtde runs in a worker process
 (:mod:`phri_hardware.arm_worker`) and the decisions are
 :class:`phri_hardware.ur_arm.ArmSupervisor`'s, so nothing here ever waits on the robot.
@@ -48,10 +52,14 @@ from phri_hardware.ur_arm import (
 )
 
 BACKENDS = ("ur_rtde", "fake")
+MODES = ("control", "monitor")
 
 PARAMS: list[ParamSpec] = [
     ParamSpec("backend", "ur_rtde", "arm interface: ur_rtde (the robot) or fake (a simulated "
               "arm for dry runs without a robot)", read_only=True),
+    ParamSpec("mode", "control", "control: commands move the arm (RTDE receive + control); "
+              "monitor: RTDE receive only, joint states and robot/safety mode published, every "
+              "command refused (bring-up dry runs)", read_only=True),
     ParamSpec("robot_ip", "", "IP address or host name of the UR controller (required for "
               "backend ur_rtde)", read_only=True),
     ParamSpec("rtde_frequency", -1.0, "RTDE frequency; -1 = the robot's own (500 Hz on "
@@ -107,14 +115,23 @@ def factory_from_values(values: dict[str, ParamValue]) -> ArmFactory:
     """The arm factory the parameters ask for (ValueError naming the parameter otherwise)."""
     backend = str(values["backend"])
     if backend not in BACKENDS:
-        raise ValueError(f"parameter 'backend' refused value {backend!r}: one of {BACKENDS}")
+        raise ValueError(f"parameter 'backend' refused value {backend!r}: allowed one of "
+                         f"{BACKENDS}")
     if backend == "fake":
         return FakeArmSpec()
     host = str(values["robot_ip"]).strip()
     if not host:
-        raise ValueError("parameter 'robot_ip' is empty: set the UR controller's address "
-                         "(backend ur_rtde)")
-    return UrRtdeArmFactory(host, float(values["rtde_frequency"]))
+        raise ValueError("parameter 'robot_ip' refused value '': allowed the UR controller's "
+                         "IP address or host name (required for backend ur_rtde)")
+    return UrRtdeArmFactory(host, float(values["rtde_frequency"]), monitor_mode(values))
+
+
+def monitor_mode(values: dict[str, ParamValue]) -> bool:
+    """True for ``mode: monitor`` (ValueError naming the parameter for an unknown mode)."""
+    mode = str(values["mode"])
+    if mode not in MODES:
+        raise ValueError(f"parameter 'mode' refused value {mode!r}: allowed one of {MODES}")
+    return mode == "monitor"
 
 
 class UrArmBridgeNode(Node):
@@ -129,6 +146,7 @@ class UrArmBridgeNode(Node):
         super().__init__("ur_arm_bridge", **kwargs)
         self._values = declare_parameters(self, PARAMS)
         self._config = bridge_config_from_values(self._values)
+        self._monitor = monitor_mode(self._values)
         factory = arm_factory if arm_factory is not None else factory_from_values(self._values)
         self._names = joint_names(str(self._values["joint_prefix"]))
         self._hardware_id = str(self._values["robot_ip"]) or str(self._values["backend"])
@@ -138,6 +156,7 @@ class UrArmBridgeNode(Node):
             report_timeout=float(self._values["report_timeout"]),
             restart_delay=float(self._values["restart_delay"]),
             watchdog_frequency=float(self._values["watchdog_frequency"]),
+            monitor=self._monitor,
         )
         self._js_pub = self.create_publisher(JointState, "/joint_states", 10)
         self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
@@ -146,6 +165,8 @@ class UrArmBridgeNode(Node):
         )
         self._last_phase = ""
         self._refused_seen = 0
+        self._last_refusal_mono = -float("inf")  # when a command was last refused
+        self._monitor_refused = 0
         self._joint_states_published = 0
         self._link.start()
         self._poll_timer = self.create_timer(self._config.period, self._poll)
@@ -153,11 +174,20 @@ class UrArmBridgeNode(Node):
             float(self._values["diagnostics_period"]), self._publish_diagnostics
         )
         self.get_logger().info(
-            f"UR arm bridge for {self._hardware_id}: joints {self._names[0]} …, "
-            f"{self._config.rate_hz:g} Hz, cap {self._config.velocity_cap:g} rad/s"
+            f"UR arm bridge for {self._hardware_id} ({self._values['mode']} mode): joints "
+            f"{self._names[0]} …, {self._config.rate_hz:g} Hz, cap "
+            f"{self._config.velocity_cap:g} rad/s"
         )
 
     def _on_command(self, msg: Float64MultiArray) -> None:
+        if self._monitor:
+            self._monitor_refused += 1
+            self._last_refusal_mono = time.monotonic()
+            self.get_logger().warning(
+                "monitor mode: command refused (receive only, nothing is sent to the arm)",
+                throttle_duration_sec=1.0,
+            )
+            return
         # Validation is the supervisor's (in the worker): one place decides what is refused.
         self._link.send_command(command_values(msg), time.monotonic())
 
@@ -178,6 +208,7 @@ class UrArmBridgeNode(Node):
         newest = reports[-1]
         if newest.counters.refused > self._refused_seen:
             self._refused_seen = newest.counters.refused
+            self._last_refusal_mono = time.monotonic()
             self.get_logger().warning(
                 f"command refused (zero velocity sent): {newest.counters.last_refusal}",
                 throttle_duration_sec=1.0,
@@ -192,6 +223,7 @@ class UrArmBridgeNode(Node):
         status = self._link.status
         report: WorkerReport | None = status.report
         values = [
+            KeyValue(key="mode", value=str(self._values["mode"])),
             KeyValue(key="link_phase", value=status.phase),
             KeyValue(key="connection_attempts", value=str(status.attempts)),
             KeyValue(key="last_error", value=status.last_error),
@@ -203,37 +235,57 @@ class UrArmBridgeNode(Node):
             level = DiagnosticStatus.WARN if first_attempt else DiagnosticStatus.ERROR
             message = f"not connected ({status.phase}): {status.last_error or 'connecting'}"
         else:
-            state = report.state
-            fault = robot_fault(state, self._config.allow_reduced_safety)
-            values += [
-                KeyValue(key="robot_mode", value=mode_name(RobotMode, state.robot_mode)),
-                KeyValue(key="safety_mode", value=mode_name(SafetyMode, state.safety_mode)),
-                KeyValue(key="protective_stopped", value=str(state.protective_stopped)),
-                KeyValue(key="emergency_stopped", value=str(state.emergency_stopped)),
-                KeyValue(key="program_running", value=str(state.program_running)),
-                KeyValue(key="armed", value=str(report.armed)),
-                KeyValue(key="moving", value=str(report.moving)),
-                KeyValue(key="hold_reason", value=report.hold_reason),
-                KeyValue(key="commands", value=str(report.counters.commands)),
-                KeyValue(key="commands_refused", value=str(report.counters.refused)),
-                KeyValue(key="last_refusal", value=report.counters.last_refusal),
-                KeyValue(key="speedj_sent", value=str(report.counters.speed_j)),
-                KeyValue(key="speedstop_sent", value=str(report.counters.speed_stop)),
-                KeyValue(key="stale_stops", value=str(report.counters.stale_stops)),
-                KeyValue(key="fault_stops", value=str(report.counters.fault_stops)),
-                KeyValue(key="loop_overruns", value=str(report.overruns)),
-                KeyValue(key="send_failures", value=str(report.send_failures)),
-            ]
-            if fault is not None:
-                level, message = DiagnosticStatus.ERROR, fault
-            elif report.hold_reason:
-                level, message = DiagnosticStatus.WARN, report.hold_reason
-            else:
-                level, message = DiagnosticStatus.OK, "moving on command"
+            values += self._report_values(report)
+            level, message = self._level_and_message(report)
         return DiagnosticStatus(
             level=level, name=f"{self.get_fully_qualified_name()}: UR arm",
             hardware_id=self._hardware_id, message=message, values=values,
         )
+
+    def _level_and_message(self, report: WorkerReport) -> tuple[bytes, str]:
+        """Level and message while connected: fault > refused commands > holding > OK."""
+        fault = robot_fault(report.state, self._config.allow_reduced_safety,
+                            need_program=not self._monitor)
+        window = float(self._values["diagnostics_period"])
+        refusing = time.monotonic() - self._last_refusal_mono <= window
+        if fault is not None:
+            return DiagnosticStatus.ERROR, fault
+        if self._monitor:
+            if refusing:
+                return DiagnosticStatus.WARN, (
+                    f"monitor mode: commands refused ({self._monitor_refused} so far)"
+                )
+            return DiagnosticStatus.OK, "monitor mode: receive only"
+        if refusing:
+            return DiagnosticStatus.WARN, (
+                f"commands refused (zero sent): {report.counters.last_refusal}"
+            )
+        if report.hold_reason:
+            return DiagnosticStatus.WARN, report.hold_reason
+        return DiagnosticStatus.OK, "moving on command"
+
+    def _report_values(self, report: WorkerReport) -> list[KeyValue]:
+        state = report.state
+        refused = self._monitor_refused if self._monitor else report.counters.refused
+        return [
+            KeyValue(key="robot_mode", value=mode_name(RobotMode, state.robot_mode)),
+            KeyValue(key="safety_mode", value=mode_name(SafetyMode, state.safety_mode)),
+            KeyValue(key="protective_stopped", value=str(state.protective_stopped)),
+            KeyValue(key="emergency_stopped", value=str(state.emergency_stopped)),
+            KeyValue(key="program_running", value=str(state.program_running)),
+            KeyValue(key="armed", value=str(report.armed)),
+            KeyValue(key="moving", value=str(report.moving)),
+            KeyValue(key="hold_reason", value=report.hold_reason),
+            KeyValue(key="commands", value=str(report.counters.commands)),
+            KeyValue(key="commands_refused", value=str(refused)),
+            KeyValue(key="last_refusal", value=report.counters.last_refusal),
+            KeyValue(key="speedj_sent", value=str(report.counters.speed_j)),
+            KeyValue(key="speedstop_sent", value=str(report.counters.speed_stop)),
+            KeyValue(key="stale_stops", value=str(report.counters.stale_stops)),
+            KeyValue(key="fault_stops", value=str(report.counters.fault_stops)),
+            KeyValue(key="loop_overruns", value=str(report.overruns)),
+            KeyValue(key="send_failures", value=str(report.send_failures)),
+        ]
 
     def _publish_diagnostics(self) -> None:
         msg = DiagnosticArray(status=[self.diagnostic_status()])
@@ -259,4 +311,4 @@ def main(args: list[str] | None = None) -> None:
 
 
 __all__ = ["PARAMS", "UrArmBridgeNode", "bridge_config_from_values", "factory_from_values",
-           "main"]
+           "main", "monitor_mode"]

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import errno
 import json
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -17,10 +19,12 @@ from std_msgs.msg import Float64MultiArray
 from phri_common.params import ParameterValueError
 from phri_common.testing import spin_until
 from phri_hardware.fake_arm import FakeArmSpec
+from phri_hardware.fake_rtde import I_SETUP_INPUTS, FakeRobotState, FakeRtdeServer
 from phri_hardware.ur_arm_bridge_node import UrArmBridgeNode
 
 RATE = 100.0
 QD = [0.1, 0.0, 0.0, 0.0, 0.0, -0.2]
+FAKE_Q = (0.1, -1.2, 1.3, -1.4, -1.5, 0.6)
 
 
 def read_log(path: Path) -> list[dict]:
@@ -30,7 +34,7 @@ def read_log(path: Path) -> list[dict]:
 
 
 class Harness:
-    def __init__(self, context: object, spec: FakeArmSpec, **overrides: object) -> None:
+    def __init__(self, context: object, spec: FakeArmSpec | None, **overrides: object) -> None:
         params = {"joint_prefix": "left_", "rate_hz": RATE, "diagnostics_period": 0.2,
                   "watchdog_frequency": 2.0, **overrides}
         self.bridge = UrArmBridgeNode(
@@ -160,3 +164,82 @@ def test_parameters_are_validated(ros_context: object) -> None:
                         parameter_overrides=[Parameter("velocity_cap", value=5.0)])
     with pytest.raises(ValueError, match="robot_ip"):
         UrArmBridgeNode(context=ros_context)  # backend ur_rtde without an address
+
+
+@pytest.fixture
+def rtde_server() -> Iterator[FakeRtdeServer]:
+    try:
+        server = FakeRtdeServer(FakeRobotState(q=FAKE_Q), lifetime=60.0)
+    except OSError as err:
+        if err.errno == errno.EADDRINUSE:
+            pytest.skip("127.0.0.1:30004 is in use (another RTDE server runs here)")
+        raise
+    with server:
+        yield server
+
+
+def _values(status: DiagnosticStatus) -> dict[str, str]:
+    return {kv.key: kv.value for kv in status.values}
+
+
+@pytest.mark.ros
+def test_monitor_mode_publishes_joint_states_from_rtde_and_refuses_commands(
+    ros_context: object, rtde_server: FakeRtdeServer
+) -> None:
+    # The real ur_rtde RTDEReceiveInterface (in the worker) against the fake RTDE server.
+    h = Harness(ros_context, None, backend="ur_rtde", robot_ip="127.0.0.1",
+                rtde_frequency=100.0, mode="monitor")
+    try:
+        assert spin_until(h.executor, lambda: len(h.joint_states) >= 20, 15.0)
+        js = h.joint_states[-1]
+        assert js.name[0] == "left_shoulder_pan_joint"
+        assert list(js.position) == pytest.approx(FAKE_Q)
+        h.run(0.5, None)
+        quiet = h.diagnostics[-1]
+        assert quiet.level == DiagnosticStatus.OK and "monitor mode" in quiet.message
+        assert _values(quiet)["robot_mode"] == "RUNNING"
+        assert _values(quiet)["safety_mode"] == "NORMAL"
+        h.run(0.6, QD)  # commands are refused: WARN, and nothing reaches the robot
+        warned = h.diagnostics[-1]
+        assert warned.level == DiagnosticStatus.WARN
+        assert "monitor mode: commands refused" in warned.message
+        assert int(_values(warned)["commands_refused"]) >= 20
+        assert h.bridge.link.status.commands_dropped == 0  # refused before the worker
+    finally:
+        h.close()
+    assert I_SETUP_INPUTS not in rtde_server.received  # no input recipe: no command channel
+
+
+@pytest.mark.ros
+def test_control_mode_failing_at_the_dashboard_reports_the_root_cause(
+    ros_context: object, rtde_server: FakeRtdeServer
+) -> None:
+    h = Harness(ros_context, None, backend="ur_rtde", robot_ip="127.0.0.1",
+                rtde_frequency=100.0, restart_delay=5.0)
+    try:
+        assert spin_until(
+            h.executor,
+            lambda: any(s.level == DiagnosticStatus.ERROR for s in h.diagnostics),
+            15.0,
+        )
+        failed = next(s for s in h.diagnostics if s.level == DiagnosticStatus.ERROR)
+        assert "dashboard" in failed.message, failed.message
+        assert "dashboard" in _values(failed)["last_error"]
+        assert not h.joint_states  # control mode needs both interfaces
+    finally:
+        h.close()
+
+
+@pytest.mark.ros
+def test_refused_commands_turn_the_status_warn(ros_context: object) -> None:
+    h = Harness(ros_context, FakeArmSpec())
+    try:
+        assert spin_until(h.executor, lambda: h.bridge.link.status.phase == "running", 10.0)
+        h.run(0.3, [0.0] * 6)
+        assert h.diagnostics[-1].message == "moving on command"
+        h.run(0.6, [5.0, 0.0, 0.0, 0.0, 0.0, 0.0])  # above the velocity cap: every one refused
+        refused = h.diagnostics[-1]
+        assert refused.level == DiagnosticStatus.WARN
+        assert refused.message.startswith("commands refused (zero sent): shoulder_pan_joint")
+    finally:
+        h.close()

@@ -8,7 +8,15 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 
-from phri_hardware.arm_worker import WorkerReport, run_arm_loop, send_nowait
+import pytest
+
+from phri_hardware.arm_worker import (
+    MONITOR_HOLD,
+    WorkerReport,
+    run_arm_loop,
+    run_monitor_loop,
+    send_nowait,
+)
 from phri_hardware.fake_arm import FakeArm, FakeArmSpec
 from phri_hardware.ur_arm import BridgeConfig
 
@@ -114,3 +122,31 @@ def test_refused_connect_is_reported() -> None:
         messages.append(parent.recv())
     assert messages[0] == ("connecting",)
     assert messages[-1][0] == "failed" and "refused" in messages[-1][1]
+
+
+def test_monitor_loop_never_commands_the_arm() -> None:
+    arm = FakeArm(FakeArmSpec())
+    parent, child = multiprocessing.Pipe(duplex=True)
+    result: list[str] = []
+    thread = threading.Thread(
+        target=lambda: result.append(run_monitor_loop(arm, BridgeConfig(rate_hz=RATE), child)),
+        daemon=True,
+    )
+    thread.start()
+    try:
+        reports = feed(parent, QD, 0.5)  # commands arrive and are discarded
+    finally:
+        send_nowait(parent, ("stop",))
+        thread.join(timeout=5.0)
+    assert result == ["stop requested"]
+    assert len(reports) >= 0.5 * RATE * 0.5
+    assert all(r.hold_reason == MONITOR_HOLD and r.action == "none" for r in reports)
+    assert reports[-1].state.q == arm.spec.initial_q  # the arm never moved
+    assert [name for name, _ in arm.calls] == ["connect", "disconnect"]  # no speedJ/Stop/watchdog
+
+
+def test_bridge_settings_refusal_names_the_setting_value_and_range() -> None:
+    with pytest.raises(ValueError, match=r"rate_hz refused value 0.0: allowed \(0, inf\)"):
+        BridgeConfig(rate_hz=0.0)
+    with pytest.raises(ValueError, match=r"velocity_cap refused value nan: allowed \[0, inf\)"):
+        BridgeConfig(velocity_cap=float("nan"))

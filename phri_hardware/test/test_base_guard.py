@@ -104,3 +104,8 @@ def test_node_limits_and_stops_on_stale(ros_context: object, stamped: bool) -> N
         guard.destroy_node()
         peer.destroy_node()
         executor.shutdown()
+
+
+def test_config_refusal_names_the_setting_value_and_range() -> None:
+    with pytest.raises(ValueError, match=r"max_angular_z refused value -0.5: allowed \[0, inf\)"):
+        BaseGuardConfig(max_angular_z=-0.5)

@@ -10,7 +10,7 @@ import pytest
 import rtde_control
 import rtde_receive
 
-from phri_hardware.rtde_arm import UrRtdeArm, UrRtdeArmFactory
+from phri_hardware.rtde_arm import RECEIVE_VARIABLES, UrRtdeArm, UrRtdeArmFactory
 from phri_hardware.ur_arm import RobotMode, SafetyMode
 
 RECEIVE_CALLS = ("isConnected", "getActualQ", "getActualQd", "getRobotMode", "getSafetyMode",
@@ -31,8 +31,9 @@ def test_every_called_method_exists_in_ur_rtde() -> None:
 class Recorder:
     """Stands in for both ur_rtde interfaces; answers like a robot in RUNNING / NORMAL."""
 
-    def __init__(self, host: str, frequency: float = -1.0) -> None:
-        self.host, self.frequency = host, frequency
+    def __init__(self, host: str, frequency: float = -1.0,
+                 variables: list[str] | None = None) -> None:
+        self.host, self.frequency, self.variables = host, frequency, variables
         self.calls: list[tuple[str, tuple[Any, ...]]] = []
         self.fail = False
 
@@ -55,8 +56,9 @@ def fake_ur_rtde(monkeypatch: pytest.MonkeyPatch) -> dict[str, Recorder]:
     def module(name: str, cls: str) -> types.ModuleType:
         mod = types.ModuleType(name)
 
-        def build(host: str, frequency: float = -1.0) -> Recorder:
-            made[name] = Recorder(host, frequency)
+        def build(host: str, frequency: float = -1.0,
+                  variables: list[str] | None = None) -> Recorder:
+            made[name] = Recorder(host, frequency, variables)
             return made[name]
 
         setattr(mod, cls, build)
@@ -86,3 +88,16 @@ def test_wrapper_maps_state_and_commands(fake_ur_rtde: dict[str, Recorder]) -> N
     arm.disconnect()
     names = [n for n, _ in fake_ur_rtde["rtde_control"].calls]
     assert names[-2:] == ["stopScript", "disconnect"]
+
+
+def test_receive_only_opens_no_control_interface(fake_ur_rtde: dict[str, Recorder]) -> None:
+    arm = UrRtdeArmFactory("10.0.0.7", 500.0, receive_only=True)()
+    arm.connect()
+    assert "rtde_control" not in fake_ur_rtde  # no dashboard, no script, no command channel
+    assert fake_ur_rtde["rtde_receive"].variables == RECEIVE_VARIABLES
+    state = arm.read_state()
+    assert state.connected and state.q == (0.1,) * 6 and not state.program_running
+    # Commands are impossible, not merely unsent.
+    assert not arm.speed_j([0.1] * 6, 2.0, 0.01)
+    assert not arm.speed_stop(4.0) and not arm.kick_watchdog()
+    arm.disconnect()

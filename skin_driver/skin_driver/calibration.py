@@ -70,24 +70,27 @@ class CalibrationConfig:
     min_free_fraction: float = 0.2
 
     def __post_init__(self) -> None:
-        checks = [
-            ("default_gain", self.default_gain >= 0),
-            ("filter_window", 1 <= self.filter_window <= 1000),
-            ("tare_frames", 0 <= self.tare_frames <= 100_000),
-            ("tare_max_shift", self.tare_max_shift >= 0),
-            ("drift_time_constant", self.drift_time_constant >= 0),
-            ("drift_band", self.drift_band >= 0),
-            ("release_time_constant", self.release_time_constant > 0),
-            ("saturation_count", 1 <= self.saturation_count <= 65535),
-            ("stuck_time", self.stuck_time >= 0),
-            ("min_free_fraction", 0 <= self.min_free_fraction <= 1),
-        ]
-        for name, ok in checks:
+        inf = math.inf
+        ranges = {  # name → allowed [low, high] (open at 0 for release_time_constant)
+            "default_gain": (0.0, inf),
+            "default_offset": (-inf, inf),
+            "filter_window": (1, 1000),
+            "tare_frames": (0, 100_000),
+            "tare_max_shift": (0.0, inf),
+            "drift_time_constant": (0.0, inf),
+            "drift_band": (0.0, inf),
+            "release_time_constant": (1e-12, inf),
+            "saturation_count": (1, 65535),
+            "stuck_time": (0.0, inf),
+            "min_free_fraction": (0.0, 1.0),
+        }
+        for name, (low, high) in ranges.items():
             value = getattr(self, name)
-            if not (ok and math.isfinite(value)):
-                raise ValueError(f"calibration setting {name} = {value!r} is out of range")
-        if not math.isfinite(self.default_offset):
-            raise ValueError(f"calibration setting default_offset = {self.default_offset!r}")
+            if not (math.isfinite(value) and low <= value <= high):
+                raise ValueError(
+                    f"calibration setting {name} refused value {value!r}: allowed "
+                    f"[{low:g}, {high:g}], finite"
+                )
 
 
 @dataclass(frozen=True)

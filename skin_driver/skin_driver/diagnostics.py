@@ -2,8 +2,8 @@
 
 One status for the port (connection, byte-level errors) and one per board/patch (rate, drops,
 masked taxels, silence). Levels: ERROR when the port is down or a board is silent (its patch is
-not being published), WARN when frames were lost or corrupted during the last period or taxels
-are masked, OK otherwise.
+not being published), WARN when bytes arrive without an intact frame for longer than the limit,
+when frames were lost or corrupted during the last period or taxels are masked, OK otherwise.
 """
 
 from __future__ import annotations
@@ -27,12 +27,19 @@ class PortSnapshot:
     bytes_read: int
     crc_errors: int
     bad_headers: int
+    false_lengths: int
     resyncs: int
     discarded_bytes: int
     unknown_board_frames: int
     new_errors: int
-    """CRC errors + bad headers + resyncs during the last period."""
+    """CRC errors + bad headers + false lengths + resyncs during the last period."""
     last_error: str
+    unframed_s: float = 0.0
+    """How long bytes have been arriving without an intact frame [s]."""
+    unframed_bytes: int = 0
+    """Bytes received since the last intact frame (counted while ``unframed_s`` > 0)."""
+    unframed_limit_s: float = float("inf")
+    """WARN when ``unframed_s`` exceeds this [s] (the node's ``silence_timeout``)."""
 
 
 @dataclass(frozen=True)
@@ -50,6 +57,8 @@ class BoardSnapshot:
     new_drops: int
     restarts: int
     size_mismatches: int
+    new_size_mismatches: int
+    clock_restarts: int
     silent: bool
     last_frame_age_s: float
     calibration: CalibrationStatus
@@ -65,6 +74,9 @@ def port_status(p: PortSnapshot) -> DiagnosticStatus:
     """Status of the serial port."""
     if not p.connected:
         level, message = DiagnosticStatus.ERROR, f"port not open: {p.last_error or 'connecting'}"
+    elif p.unframed_s > p.unframed_limit_s:
+        level = DiagnosticStatus.WARN
+        message = f"{p.unframed_bytes} bytes in {p.unframed_s:.1f} s without an intact frame"
     elif p.new_errors:
         level, message = DiagnosticStatus.WARN, f"{p.new_errors} corrupted frames or resyncs"
     else:
@@ -77,8 +89,10 @@ def port_status(p: PortSnapshot) -> DiagnosticStatus:
         _kv("bytes_read", p.bytes_read),
         _kv("crc_errors", p.crc_errors),
         _kv("bad_headers", p.bad_headers),
+        _kv("false_lengths", p.false_lengths),
         _kv("resyncs", p.resyncs),
         _kv("discarded_bytes", p.discarded_bytes),
+        _kv("bytes_without_frame", p.unframed_bytes),
         _kv("unknown_board_frames", p.unknown_board_frames),
         _kv("last_error", p.last_error),
     ]
@@ -99,8 +113,11 @@ def board_status(b: BoardSnapshot, url: str) -> DiagnosticStatus:
         message = f"silent for {b.last_frame_age_s:.2f} s: not publishing"
     elif not cal.tared:
         level, message = DiagnosticStatus.WARN, "taring"
-    elif b.new_drops or b.size_mismatches:
-        level, message = DiagnosticStatus.WARN, f"{b.new_drops} frames dropped"
+    elif b.new_drops or b.new_size_mismatches:
+        level = DiagnosticStatus.WARN
+        message = f"{b.new_drops} frames dropped"
+        if b.new_size_mismatches:
+            message += f", {b.new_size_mismatches} frames of the wrong size"
     elif cal.dead or cal.saturated:
         level = DiagnosticStatus.WARN
         message = f"{cal.dead} taxels masked, {cal.saturated} saturated"
@@ -117,6 +134,7 @@ def board_status(b: BoardSnapshot, url: str) -> DiagnosticStatus:
         _kv("dropped", b.dropped),
         _kv("sequence_restarts", b.restarts),
         _kv("size_mismatches", b.size_mismatches),
+        _kv("clock_restarts", b.clock_restarts),
         _kv("last_frame_age_s", b.last_frame_age_s),
         _kv("tared", cal.tared),
         _kv("masked_taxels", cal.dead),

@@ -9,7 +9,9 @@ serial thread (:class:`~skin_driver.transport.SerialReader`) feeds the
 silence timers, the tare service and parameter services.
 
 Topics: ``skin/<patch>/taxels`` (``sensor_msgs/PointCloud2``, frame = the patch's link, stamp =
-arrival time of the frame's last byte), ``/diagnostics`` (``diagnostic_msgs/DiagnosticArray``).
+the board's sampling time ``board_time_us`` mapped to the node clock by
+:class:`~skin_driver.board_clock.BoardClock`, one per board), ``/diagnostics``
+(``diagnostic_msgs/DiagnosticArray``).
 Service: ``~/tare`` (``std_srvs/Trigger``). Interface: ``docs/skin_driver.md``.
 """
 
@@ -19,7 +21,7 @@ import sys
 import threading
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
@@ -36,10 +38,11 @@ from phri_common.params import ParameterValueError, ParamSpec, ParamValue
 from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
 from phri_common.taxels import TaxelCloudEncoder
+from skin_driver.board_clock import BoardClock
 from skin_driver.calibration import CalibrationConfig, PatchCalibrator
 from skin_driver.diagnostics import BoardSnapshot, PortSnapshot, board_status, port_status
 from skin_driver.layout import LayoutError, SkinLayout, load_layout
-from skin_driver.protocol import MAX_TAXELS, Frame, FrameParser
+from skin_driver.protocol import MAX_TAXELS, BoardSequence, Frame, FrameParser
 from skin_driver.transport import SerialReader
 
 PARAMS: list[ParamSpec] = [
@@ -79,7 +82,8 @@ PARAMS: list[ParamSpec] = [
     ParamSpec("stuck_time", 5.0, "a raw count unchanged this long masks the taxel as dead "
               "until it changes (0 = off)", unit="s", low=0.0, high=3600.0, read_only=True),
     ParamSpec("silence_timeout", 0.1, "a board without frames this long is declared silent "
-              "(its patch is not published; diagnostics ERROR)", unit="s", low=0.004,
+              "(its patch is not published; diagnostics ERROR); bytes arriving this long "
+              "without an intact frame turn the port status WARN", unit="s", low=0.004,
               high=60.0),
     ParamSpec("diagnostics_period", 1.0, "period of /diagnostics", unit="s", low=0.05,
               high=60.0, read_only=True),
@@ -116,7 +120,10 @@ def load_patches(board_ids: Sequence[int], files: Sequence[str]) -> dict[int, Sk
             f"({len(board_ids)}), got {len(files)}"
         )
     if len(set(board_ids)) != len(board_ids):
-        raise ParameterValueError(f"parameter 'board_ids' has duplicates: {list(board_ids)}")
+        raise ParameterValueError(
+            f"parameter 'board_ids' refused value {list(board_ids)}: allowed unique ids in "
+            "[0, 255]"
+        )
     patches: dict[int, SkinLayout] = {}
     for board, path in zip(board_ids, files, strict=True):
         if not path:
@@ -129,7 +136,9 @@ def load_patches(board_ids: Sequence[int], files: Sequence[str]) -> dict[int, Sk
             raise ParameterValueError(f"parameter 'layout_files': {err}") from err
     names = [layout.patch for layout in patches.values()]
     if len(set(names)) != len(names):
-        raise ParameterValueError(f"parameter 'layout_files': duplicate patch names {names}")
+        raise ParameterValueError(
+            f"parameter 'layout_files' refused: the layouts' patch names {names} must be unique"
+        )
     return patches
 
 
@@ -149,6 +158,10 @@ class _Channel:
     silent: bool = True
     frames_at_last_diag: int = 0
     dropped_at_last_diag: int = 0
+    mismatches_at_last_diag: int = 0
+    sequence: BoardSequence = field(default_factory=BoardSequence)
+    """Sequence gaps of the frames accepted for this board (dropped = gaps only)."""
+    clock: BoardClock = field(default_factory=BoardClock)
 
 
 class SkinDriverNode(Node):
@@ -163,7 +176,7 @@ class SkinDriverNode(Node):
     ) -> None:
         super().__init__(node_name, context=context, parameter_overrides=parameter_overrides)
         try:
-            self._values = declare_parameters(self, PARAMS)
+            self._values = declare_parameters(self, PARAMS, on_change=self._on_change)
             v = self._values
             config = calibration_config(v)
             layouts = load_patches(
@@ -201,12 +214,21 @@ class SkinDriverNode(Node):
         self._errors_at_last_diag = 0
         self._last_diag_mono = time.monotonic()
         self._port_warned = False
+        self._unframed_since: float | None = None  # first read without an intact frame since one
+        self._unframed_bytes = 0
+        self._unframed_warned = False
         self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self._tare_srv = self.create_service(Trigger, "~/tare", self._on_tare)
         self.create_timer(float(v["diagnostics_period"]), self.publish_diagnostics)
         silence = float(v["silence_timeout"])
         self._silence_timer = self.create_timer(max(silence / 2.0, 0.002), self._check_silence)
-        self._reader = SerialReader(
+        self._reader = self._make_reader(v)
+        self._reader.start()
+        patches = ", ".join(f"{b}→{c.layout.patch}" for b, c in self._channels.items())
+        self.get_logger().info(f"reading {self._url}; boards {patches}")
+
+    def _make_reader(self, v: dict[str, ParamValue]) -> SerialReader:
+        return SerialReader(
             self._url,
             self._on_data,
             baudrate=int(v["baudrate"]),
@@ -219,9 +241,6 @@ class SkinDriverNode(Node):
             on_connect=self._on_connect,
             on_error=self._on_port_error,
         )
-        self._reader.start()
-        patches = ", ".join(f"{b}→{c.layout.patch}" for b, c in self._channels.items())
-        self.get_logger().info(f"reading {self._url}; boards {patches}")
 
     # ------------------------------------------------------------------ serial thread side
 
@@ -242,10 +261,16 @@ class SkinDriverNode(Node):
         with self._lock:
             frames = self._parser.feed(chunk)
             mono = time.monotonic()
+            if frames:
+                self._unframed_since, self._unframed_bytes = None, 0
+            else:
+                if self._unframed_since is None:
+                    self._unframed_since = mono
+                self._unframed_bytes += len(chunk)
             for frame in frames:
                 self._on_frame(frame, arrival_ns, mono)
 
-    def _on_frame(self, frame: Frame, stamp_ns: int, mono: float) -> None:
+    def _on_frame(self, frame: Frame, arrival_ns: int, mono: float) -> None:
         channel = self._channels.get(frame.board_id)
         if channel is None:
             self._unknown_board_frames += 1
@@ -253,6 +278,8 @@ class SkinDriverNode(Node):
         if frame.counts.shape[0] != channel.layout.size:
             channel.size_mismatches += 1
             return
+        channel.sequence.observe(frame.sequence)
+        stamp_ns = channel.clock.stamp(frame.board_time_us, arrival_ns)
         channel.frames += 1
         channel.last_frame_mono = mono
         if channel.silent:
@@ -267,9 +294,28 @@ class SkinDriverNode(Node):
 
     # ----------------------------------------------------------------------- executor side
 
+    def _on_change(self, values: dict[str, ParamValue]) -> None:
+        """Run-time parameter change (only ``silence_timeout`` is writable): re-arm its timer."""
+        silence = float(values["silence_timeout"])
+        self._silence_timer.timer_period_ns = int(max(silence / 2.0, 0.002) * 1e9)
+
+    def _unframed_for(self, now: float) -> float:
+        """How long bytes have been arriving without an intact frame [s] (0 if not)."""
+        since = self._unframed_since
+        return 0.0 if since is None else now - since
+
     def _check_silence(self) -> None:
         timeout = float(self._values["silence_timeout"])
         now = time.monotonic()
+        unframed = self._unframed_for(now) > timeout
+        if unframed and not self._unframed_warned:
+            self.get_logger().warning(
+                f"port {self._url}: {self._unframed_bytes} bytes in "
+                f"{self._unframed_for(now):.2f} s without an intact frame (wrong device, "
+                "baud rate or protocol version?)"
+            )
+            self.publish_diagnostics()
+        self._unframed_warned = unframed
         newly_silent = []
         with self._lock:
             for channel in self._channels.values():
@@ -299,7 +345,7 @@ class SkinDriverNode(Node):
             elapsed = max(now - self._last_diag_mono, 1e-6)
             self._last_diag_mono = now
             s = self._parser.stats
-            errors = s.crc_errors + s.bad_headers + s.resyncs
+            errors = s.errors + s.resyncs
             t = self._reader.stats
             port = PortSnapshot(
                 url=self._url,
@@ -310,17 +356,20 @@ class SkinDriverNode(Node):
                 bytes_read=t.bytes_read,
                 crc_errors=s.crc_errors,
                 bad_headers=s.bad_headers,
+                false_lengths=s.false_lengths,
                 resyncs=s.resyncs,
                 discarded_bytes=s.discarded_bytes,
                 unknown_board_frames=self._unknown_board_frames,
                 new_errors=errors - self._errors_at_last_diag,
                 last_error=t.last_error,
+                unframed_s=self._unframed_for(now),
+                unframed_bytes=self._unframed_bytes,
+                unframed_limit_s=float(self._values["silence_timeout"]),
             )
             self._errors_at_last_diag = errors
             boards = []
             for board, c in self._channels.items():
-                seq = s.boards.get(board)
-                dropped = 0 if seq is None else seq.dropped
+                dropped = c.sequence.dropped
                 boards.append(
                     BoardSnapshot(
                         board_id=board,
@@ -332,8 +381,10 @@ class SkinDriverNode(Node):
                         published=c.published,
                         dropped=dropped,
                         new_drops=dropped - c.dropped_at_last_diag,
-                        restarts=0 if seq is None else seq.restarts,
+                        restarts=c.sequence.restarts,
                         size_mismatches=c.size_mismatches,
+                        new_size_mismatches=c.size_mismatches - c.mismatches_at_last_diag,
+                        clock_restarts=c.clock.restarts,
                         silent=c.silent,
                         last_frame_age_s=(now - c.last_frame_mono) if c.frames else float("inf"),
                         calibration=c.calibrator.status(),
@@ -341,6 +392,7 @@ class SkinDriverNode(Node):
                 )
                 c.frames_at_last_diag = c.frames
                 c.dropped_at_last_diag = dropped
+                c.mismatches_at_last_diag = c.size_mismatches
         return port, boards
 
     def publish_diagnostics(self) -> None:

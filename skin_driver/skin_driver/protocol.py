@@ -19,7 +19,12 @@ implementation. One frame (all integers little-endian)::
 The header carries its own CRC so that a corrupted ``taxel_count`` is rejected before the parser
 waits for a payload that never comes; every length is bounded by :data:`MAX_TAXELS` (and by the
 parser's own, possibly smaller, ``max_taxels``), so a forged count cannot make the parser buffer
-more than one maximal frame plus the chunk being fed.
+more than one maximal frame plus the chunk being fed. A forged header *with* a valid CRC and a
+legal but wrong count is caught by looking ahead: while the parser waits for the rest of a
+frame, an intact frame (both CRCs valid) that starts inside the awaited span proves the awaited
+length false, and the parser moves on at once. So a bad length costs at most the frames it
+overlaps and delays the next intact frame by nothing (it is returned by the chunk that completes
+it), with no change to the wire format.
 """
 
 from __future__ import annotations
@@ -44,6 +49,10 @@ HEADER_SIZE = _HEADER.size + 2
 TRAILER_SIZE = 4
 COUNT_BYTES = 2
 SEQUENCE_MODULO = 1 << 16
+
+
+# Verdicts of FrameParser._frame_at besides an intact Frame.
+_WAIT, _HEADER_CRC, _BAD_HEADER, _FRAME_CRC, _FALSE_LENGTH = range(5)
 
 
 def frame_size(taxel_count: int) -> int:
@@ -122,12 +131,27 @@ class Frame:
 
 @dataclass
 class BoardSequence:
-    """Sequence bookkeeping for one board id."""
+    """Sequence bookkeeping for one board id.
+
+    A sequence gap of ``0 < g < 32768`` frames counts as ``g`` dropped frames; a larger jump
+    (backwards, e.g. a board reset) counts as a restart.
+    """
 
     last: int | None = None
     frames: int = 0
     dropped: int = 0
     restarts: int = 0
+
+    def observe(self, seq: int) -> None:
+        """Account for one received frame with sequence number ``seq``."""
+        if self.last is not None:
+            gap = (seq - self.last - 1) % SEQUENCE_MODULO
+            if 0 < gap < SEQUENCE_MODULO // 2:
+                self.dropped += gap
+            elif gap != 0:
+                self.restarts += 1
+        self.last = seq
+        self.frames += 1
 
 
 @dataclass
@@ -139,6 +163,8 @@ class ParserStats:
         frames: intact frames returned.
         header_crc_errors: sync found but the header CRC failed.
         bad_headers: header CRC passed but version, encoding or count are invalid.
+        false_lengths: header CRC passed, but an intact frame started inside the length it
+            announced (a forged or corrupted length): abandoned without waiting.
         frame_crc_errors: header valid, frame CRC failed.
         resyncs: times the parser dropped bytes to look for the next sync.
         discarded_bytes: bytes skipped while resynchronising.
@@ -149,6 +175,7 @@ class ParserStats:
     frames: int = 0
     header_crc_errors: int = 0
     bad_headers: int = 0
+    false_lengths: int = 0
     frame_crc_errors: int = 0
     resyncs: int = 0
     discarded_bytes: int = 0
@@ -157,6 +184,11 @@ class ParserStats:
     @property
     def crc_errors(self) -> int:
         return self.header_crc_errors + self.frame_crc_errors
+
+    @property
+    def errors(self) -> int:
+        """Every rejected header or frame (CRC, bad header, false length)."""
+        return self.crc_errors + self.bad_headers + self.false_lengths
 
     @property
     def dropped(self) -> int:
@@ -168,11 +200,15 @@ class FrameParser:
 
     Feed it bytes in chunks of any size; it returns every intact frame and skips everything
     else. Resynchronisation: after a bad header or CRC it advances one byte past the failed sync
-    and searches again, so a real frame hidden inside a false one is still found. Memory: the
-    internal buffer never holds more than one maximal frame plus the chunk just fed.
+    and searches again, so a real frame hidden inside a false one is still found. While it
+    waits for the rest of a frame it looks ahead: an intact frame starting inside the awaited
+    span proves the announced length false (a forged header with a valid CRC), and the parser
+    moves on at once. Memory: the internal buffer never holds more than one maximal frame plus
+    the chunk just fed.
 
-    A sequence gap of ``0 < g < 32768`` frames counts as ``g`` dropped frames; a larger jump
-    (backwards, e.g. a board reset) counts as a restart.
+    ``stats.boards`` counts sequence gaps of every intact frame in the stream (see
+    :class:`BoardSequence`); a consumer that drops some frames (unknown board, wrong size)
+    keeps its own :class:`BoardSequence` for the frames it accepts.
     """
 
     def __init__(self, max_taxels: int = MAX_TAXELS) -> None:
@@ -183,6 +219,7 @@ class FrameParser:
         self.stats = ParserStats()
         self._buf = bytearray()
         self._in_sync = True
+        self._probe = 1  # look-ahead resumes here, relative to the awaited frame's start
 
     @property
     def buffered(self) -> int:
@@ -193,6 +230,7 @@ class FrameParser:
         """Forget buffered bytes (after a reconnect: the stream is discontinuous)."""
         self._buf.clear()
         self._in_sync = True
+        self._probe = 1
 
     def feed(self, data: bytes | bytearray | memoryview) -> list[Frame]:
         """Consume ``data``; return the frames it completed, in stream order."""
@@ -212,42 +250,83 @@ class FrameParser:
                 break
             if start > pos:
                 self._skip(pos, start)
+                self._probe = 1
             pos = start
-            if n - pos < HEADER_SIZE:
-                break
-            (_, version, encoding, board, flags, seq, count, btime) = _HEADER.unpack_from(buf, pos)
-            (hcrc,) = struct.unpack_from("<H", buf, pos + _HEADER.size)
-            if _crc16(memoryview(buf)[pos : pos + _HEADER.size]) != hcrc:
-                self.stats.header_crc_errors += 1
+            verdict = self._frame_at(buf, pos, n)
+            if verdict == _WAIT:
+                if n - pos >= HEADER_SIZE and self._intact_frame_inside(buf, pos, n):
+                    self.stats.false_lengths += 1
+                    verdict = _FALSE_LENGTH
+                else:
+                    break
+            if isinstance(verdict, int):
+                self._count_rejection(verdict)
                 self._skip(pos, pos + 1)
+                self._probe = 1
                 pos += 1
                 continue
-            if (
-                version != PROTOCOL_VERSION
-                or encoding != ENCODING_U16
-                or not 1 <= count <= self.max_taxels
-            ):
-                self.stats.bad_headers += 1
-                self._skip(pos, pos + 1)
-                pos += 1
-                continue
-            size = frame_size(count)
-            if n - pos < size:
-                break
-            end = pos + size - TRAILER_SIZE
-            (fcrc,) = struct.unpack_from("<I", buf, end)
-            if zlib.crc32(memoryview(buf)[pos:end]) != fcrc:
-                self.stats.frame_crc_errors += 1
-                self._skip(pos, pos + 1)
-                pos += 1
-                continue
-            counts = np.frombuffer(buf, dtype="<u2", count=count, offset=pos + HEADER_SIZE).copy()
-            frames.append(Frame(board, seq, btime, flags, counts))
+            frames.append(verdict)
             self._in_sync = True
-            self._count_sequence(board, seq)
-            pos += size
+            self._count_sequence(verdict.board_id, verdict.sequence)
+            self._probe = 1
+            pos += frame_size(verdict.counts.shape[0])
         del buf[:pos]
         return frames
+
+    def _count_rejection(self, verdict: int) -> None:
+        if verdict == _HEADER_CRC:
+            self.stats.header_crc_errors += 1
+        elif verdict == _BAD_HEADER:
+            self.stats.bad_headers += 1
+        elif verdict == _FRAME_CRC:
+            self.stats.frame_crc_errors += 1
+
+    def _frame_at(self, buf: bytearray, pos: int, n: int) -> Frame | int:
+        """The intact frame starting at ``buf[pos]`` (a sync), or why not (``_WAIT`` = need
+        more bytes; the other codes: rejected). Updates no counter."""
+        if n - pos < HEADER_SIZE:
+            return _WAIT
+        (_, version, encoding, board, flags, seq, count, btime) = _HEADER.unpack_from(buf, pos)
+        (hcrc,) = struct.unpack_from("<H", buf, pos + _HEADER.size)
+        if _crc16(memoryview(buf)[pos : pos + _HEADER.size]) != hcrc:
+            return _HEADER_CRC
+        if version != PROTOCOL_VERSION or encoding != ENCODING_U16:
+            return _BAD_HEADER
+        if not 1 <= count <= self.max_taxels:
+            return _BAD_HEADER
+        size = frame_size(count)
+        if n - pos < size:
+            return _WAIT
+        end = pos + size - TRAILER_SIZE
+        (fcrc,) = struct.unpack_from("<I", buf, end)
+        if zlib.crc32(memoryview(buf)[pos:end]) != fcrc:
+            return _FRAME_CRC
+        counts = np.frombuffer(buf, dtype="<u2", count=count, offset=pos + HEADER_SIZE).copy()
+        return Frame(board, seq, btime, flags, counts)
+
+    def _intact_frame_inside(self, buf: bytearray, pos: int, n: int) -> bool:
+        """Does an intact frame start inside the incomplete frame announced at ``buf[pos]``?
+
+        Scans the syncs after ``pos`` (from where the previous call left off: candidates
+        already ruled out are not checked again). A candidate still incomplete is checked
+        again on the next call; later candidates are checked meanwhile, so a second forged
+        header cannot hold up the first intact frame either.
+        """
+        probe = pos + max(self._probe, 1)
+        undecided = -1
+        while True:
+            cand = buf.find(SYNC, probe, n)
+            if cand < 0 or n - cand < HEADER_SIZE:
+                break
+            verdict = self._frame_at(buf, cand, n)
+            if isinstance(verdict, Frame):
+                return True
+            if verdict == _WAIT and undecided < 0:
+                undecided = cand
+            probe = cand + 1
+        resume = undecided if undecided >= 0 else (cand if cand >= 0 else n - 1)
+        self._probe = max(resume - pos, 1)
+        return False
 
     def _skip(self, begin: int, end: int) -> None:
         # One resync per run of skipped bytes between two good frames.
@@ -262,11 +341,4 @@ class FrameParser:
         track = self.stats.boards.get(board)
         if track is None:
             track = self.stats.boards[board] = BoardSequence()
-        if track.last is not None:
-            gap = (seq - track.last - 1) % SEQUENCE_MODULO
-            if 0 < gap < SEQUENCE_MODULO // 2:
-                track.dropped += gap
-            elif gap != 0:
-                track.restarts += 1
-        track.last = seq
-        track.frames += 1
+        track.observe(seq)

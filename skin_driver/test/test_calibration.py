@@ -201,3 +201,15 @@ def test_wrong_frame_size_is_refused() -> None:
     cal = PatchCalibrator(4, CalibrationConfig())
     with pytest.raises(ValueError, match="expected 4 taxels"):
         cal.process(np.zeros(5, np.uint16), 0.0)
+
+
+@pytest.mark.parametrize(
+    ("setting", "value", "allowed"),
+    [("filter_window", 0, r"\[1, 1000\]"), ("tare_max_shift", -0.1, r"\[0, inf\]"),
+     ("min_free_fraction", float("nan"), r"\[0, 1\]")],
+)
+def test_setting_refusal_names_the_setting_value_and_range(
+    setting: str, value: float, allowed: str
+) -> None:
+    with pytest.raises(ValueError, match=rf"{setting} refused value {value!r}: allowed {allowed}"):
+        CalibrationConfig(**{setting: value})

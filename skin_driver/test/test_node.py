@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import binascii
+import struct
 import threading
 import time
 from pathlib import Path
@@ -19,6 +21,7 @@ from phri_common.taxels import msg_to_taxels
 from phri_common.testing import spin_until
 from skin_driver.layout import rectangular_patch, save_layout
 from skin_driver.node import SkinDriverNode
+from skin_driver.protocol import encode_frame
 from skin_driver.sim_board import Faults, PtyEndpoint, SimBoard, press_pattern, run_boards
 
 RATE = 500.0
@@ -204,6 +207,7 @@ def test_bad_parameters_are_refused(ros_context, setup, tmp_path: Path) -> None:
         result = node.set_parameters([Parameter("silence_timeout", value=float("nan"))])[0]
         assert not result.successful and "silence_timeout" in result.reason
         assert node.set_parameters([Parameter("silence_timeout", value=0.5)])[0].successful
+        assert node._silence_timer.timer_period_ns == 250_000_000  # the check follows it
         port, boards = node.snapshot()
         assert not port.connected and boards[0].silent
     finally:
@@ -239,3 +243,102 @@ def test_two_patches_on_one_port(ros_context, tmp_path: Path) -> None:  # type: 
         board.vanish()
         node.destroy_node()
         sub.destroy_node()
+
+
+class ForgingBoard(SimBoard):
+    """A board whose stream carries forged data after some frames (valid CRCs, wrong sizes).
+
+    After frame ``forge_at``: a header announcing 16,384 taxels (32 KB: ≈ 350 of this board's
+    frames). Every 50th frame: a complete frame of 10 taxels (this board has 36) with a random
+    sequence number.
+    """
+
+    forge_at = 300
+
+    def frame(self, forces, t, *, overrun=False):  # type: ignore[no-untyped-def, override]
+        data = super().frame(forces, t, overrun=overrun)
+        seq = (self.sequence - 1) % 65536
+        if seq == self.forge_at:
+            head = struct.pack("<2sBBBBHHI", b"\xa5\x5a", 1, 1, self.board_id, 0, 7, 16384, 0)
+            data += head + struct.pack("<H", binascii.crc_hqx(head, 0xFFFF))
+        if seq % 50 == 25:
+            rogue = int(self._rng.integers(0, 65536))
+            data += encode_frame(self.board_id, rogue, np.full(10, 1000), board_time_us=rogue)
+        return data
+
+
+@pytest.mark.ros
+def test_forged_header_costs_no_stall_and_every_frame_keeps_its_own_stamp(  # type: ignore[no-untyped-def]
+    ros_context, setup
+) -> None:
+    layout, layout_file, link = setup
+    board = Board(link, [(ForgingBoard(4, layout, noise_counts=0.0, seed=3),
+                          press_pattern(layout, force=2.0, radius=0.01, period=0.0))])
+    board.start()
+    node = _node(ros_context, link, layout_file, tare_frames=20, qos_depth=100)
+    sub = Node("listener", context=ros_context)
+    listener = Listener(sub, "skin/forearm/taxels")
+    ex = SingleThreadedExecutor(context=ros_context)
+    ex.add_node(node)
+    ex.add_node(sub)
+    try:
+        # Publishing starts at frame 20; the forged header follows frame 300 (t = 0.6 s).
+        assert spin_until(ex, lambda: len(listener.msgs) >= 600, timeout_s=30.0)
+        port, boards = node.snapshot()
+    finally:
+        board.vanish()
+        node.destroy_node()
+        sub.destroy_node()
+    assert port.false_lengths >= 1  # the forged length was abandoned, not waited for
+    stamps = np.array([msg_to_taxels(m).stamp_ns for m in listener.msgs])
+    steps = np.diff(stamps) / 2e6  # in board periods (2 ms)
+    # Every frame has its own stamp, spaced by the board's clock: whole periods (a frame lost
+    # under load is a gap of 2 or more; the offset estimate settles a few 0.1 ms in the first
+    # frames), never a shared arrival time.
+    assert np.all(steps > 0.5)
+    np.testing.assert_allclose(steps[50:], np.round(steps[50:]), atol=0.2)
+    gaps = int(np.sum(np.round(steps) - 1))
+    # No stall: waiting for the forged 32 KB would have held ≈ 0.7 s of frames back.
+    assert np.max(np.diff(listener.times)) < 0.25
+    # dropped counts sequence gaps of this board's accepted frames only: the rogue frames
+    # (random sequence numbers, wrong size) are size mismatches, not drops.
+    assert boards[0].size_mismatches >= 5
+    assert boards[0].dropped <= gaps + 5 and boards[0].restarts == 0
+
+
+@pytest.mark.ros
+def test_bytes_without_a_valid_frame_turn_the_port_warn(ros_context, setup) -> None:  # type: ignore[no-untyped-def]
+    _, layout_file, link = setup
+    endpoint = PtyEndpoint(link)
+    node = _node(ros_context, link, layout_file, silence_timeout=0.2)
+    sub = Node("listener", context=ros_context)
+    listener = Listener(sub, "skin/forearm/taxels")
+    ex = SingleThreadedExecutor(context=ros_context)
+    ex.add_node(node)
+    ex.add_node(sub)
+    rng = np.random.default_rng(5)
+    try:
+        assert spin_until(ex, lambda: node._reader.stats.connected, timeout_s=10.0)
+        end = time.monotonic() + 1.5
+        while time.monotonic() < end:  # bytes that never contain a sync word
+            endpoint.write(rng.integers(0, 0xA5, 200).astype(np.uint8).tobytes())
+            spin_until(ex, lambda: False, timeout_s=0.01)
+        assert spin_until(
+            ex,
+            lambda: (s := _status(listener, "port")) is not None
+            and s.level == DiagnosticStatus.WARN and "without an intact frame" in s.message,
+            timeout_s=3.0,
+        )
+        port, _ = node.snapshot()
+        assert port.connected and port.unframed_bytes > 10_000
+    finally:
+        endpoint.close()
+        node.destroy_node()
+        sub.destroy_node()
+
+
+def test_duplicate_board_ids_are_refused_naming_value_and_rule(tmp_path: Path) -> None:
+    from skin_driver.node import load_patches
+
+    with pytest.raises(ParameterValueError, match=r"'board_ids' refused value \[3, 3\]: .*unique"):
+        load_patches([3, 3], [str(tmp_path / "a.yaml"), str(tmp_path / "b.yaml")])

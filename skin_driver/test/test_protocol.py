@@ -205,3 +205,48 @@ def test_byte_by_byte_feed_with_split_sync() -> None:
     assert parser.buffered == 1  # the trailing 0xA5 may start a sync
     assert parser.stats.discarded_bytes == 2
     assert HEADER_SIZE == 16
+
+
+def _forged_header(count: int, board: int = 4, seq: int = 999) -> bytes:
+    """A header with a valid CRC announcing ``count`` taxels, followed by nothing of its own."""
+    head = struct.pack("<2sBBBBHHI", SYNC, 1, 1, board, 0, seq, count, 0)
+    return head + struct.pack("<H", _crc16_ccitt_false(head))
+
+
+@pytest.mark.parametrize("forged_counts", [[10_000], [16_384, 5_000], [37]])
+def test_forged_length_costs_no_intact_frame_and_no_stall(forged_counts: list[int]) -> None:
+    # A 36-taxel board at 500 Hz: one 92-byte frame per 2 ms read. Forged headers with valid
+    # CRCs announce a long frame after frame 3 (37 = just one taxel more than the real size).
+    real = [encode_frame(4, s, np.full(36, 1000 + s), board_time_us=2000 * s) for s in range(40)]
+    chunks = [*real[:4], b"".join(_forged_header(c) for c in forged_counts), *real[4:]]
+    parser = FrameParser()
+    delivered: list[tuple[int, int]] = []  # (chunk index, sequence)
+    for i, chunk in enumerate(chunks):
+        delivered += [(i, f.sequence) for f in parser.feed(chunk)]
+    assert [seq for _, seq in delivered] == list(range(40))  # every intact frame, in order
+    for i, seq in delivered:  # each returned by the very read that completed it
+        assert chunks[i] == real[seq]
+    assert parser.stats.errors == len(forged_counts)  # a false length or a frame CRC error
+    assert parser.stats.boards[4].dropped == 0
+    assert parser.buffered == 0
+
+
+def test_forged_length_overwriting_a_frame_costs_only_that_frame() -> None:
+    real = [encode_frame(2, s, np.full(8, s)) for s in range(6)]
+    damaged = _forged_header(12_000, board=2) + real[2][16:]  # header of frame 2 replaced
+    parser = FrameParser()
+    out = []
+    for chunk in [real[0], real[1], damaged, real[3], real[4], real[5]]:
+        out += [f.sequence for f in parser.feed(chunk)]
+    assert out == [0, 1, 3, 4, 5]
+    assert parser.stats.boards[2].dropped == 1
+
+
+def test_a_real_long_frame_arriving_in_pieces_is_not_abandoned() -> None:
+    counts = np.arange(5000) % 65536
+    counts[100:102] = [0x5AA5, 0x0001]  # a sync pair inside the payload
+    data = encode_frame(1, 7, counts)
+    parser = FrameParser()
+    out = [f for k in range(0, len(data), 97) for f in parser.feed(data[k : k + 97])]
+    assert len(out) == 1 and out[0].sequence == 7
+    assert parser.stats.false_lengths == 0 and parser.stats.errors == 0

@@ -1,0 +1,101 @@
+"""ur_rtde's RTDEReceiveInterface against the project's fake RTDE server on 127.0.0.1.
+
+The bridge's worker process (the real ur_rtde, not a stand-in) connects to
+:class:`phri_hardware.fake_rtde.FakeRtdeServer`: monitor mode reads joint states and modes
+through RTDE receive only; control mode fails at the dashboard (the fake serves no dashboard,
+as a robot in Local mode or with the dashboard blocked would) and the diagnostics keep that
+root cause.
+"""
+
+from __future__ import annotations
+
+import errno
+import time
+from collections.abc import Iterator
+
+import pytest
+
+from phri_hardware.arm_worker import ArmLink, WorkerReport
+from phri_hardware.fake_arm import FakeArmSpec
+from phri_hardware.fake_rtde import I_SETUP_INPUTS, FakeRobotState, FakeRtdeServer
+from phri_hardware.rtde_arm import UrRtdeArmFactory
+from phri_hardware.ur_arm import BridgeConfig, SafetyMode
+
+Q = (0.1, -1.2, 1.3, -1.4, -1.5, 0.6)
+
+
+@pytest.fixture
+def rtde_server() -> Iterator[FakeRtdeServer]:
+    try:
+        server = FakeRtdeServer(FakeRobotState(q=Q), lifetime=60.0)
+    except OSError as err:
+        if err.errno == errno.EADDRINUSE:
+            pytest.skip("127.0.0.1:30004 is in use (another RTDE server runs here)")
+        raise
+    with server:
+        yield server
+
+
+def _link(factory: object, monitor: bool) -> ArmLink:
+    return ArmLink(factory, BridgeConfig(rate_hz=50.0), connect_timeout=10.0,  # type: ignore[arg-type]
+                   report_timeout=2.0, restart_delay=5.0, watchdog_frequency=0.0,
+                   monitor=monitor)
+
+
+def _poll_until(link: ArmLink, done: object, timeout: float) -> list[WorkerReport]:
+    reports: list[WorkerReport] = []
+    end = time.monotonic() + timeout
+    while time.monotonic() < end and not done(link, reports):  # type: ignore[operator]
+        reports += link.poll()
+        time.sleep(0.01)
+    return reports
+
+
+def test_monitor_mode_reads_the_robot_through_rtde_receive_only(
+    rtde_server: FakeRtdeServer,
+) -> None:
+    link = _link(UrRtdeArmFactory("127.0.0.1", 100.0, receive_only=True), monitor=True)
+    link.start()
+    try:
+        reports = _poll_until(link, lambda lk, r: len(r) >= 20, timeout=15.0)
+        assert len(reports) >= 20, f"no reports: {link.status}"
+        state = reports[-1].state
+        assert state.connected and state.q == pytest.approx(Q)
+        assert state.safety_mode == SafetyMode.NORMAL and not state.protective_stopped
+        assert all(r.action == "none" and not r.moving for r in reports)
+        with rtde_server.state.lock:  # a protective stop on the robot shows up in the state
+            rtde_server.state.protective_stopped = True
+            rtde_server.state.safety_mode = SafetyMode.PROTECTIVE_STOP
+        later = _poll_until(link, lambda lk, r: any(x.state.protective_stopped for x in r), 5.0)
+        assert later and later[-1].state.protective_stopped
+    finally:
+        link.close()
+    assert rtde_server.data_sent > 0
+    assert I_SETUP_INPUTS not in rtde_server.received  # never asked for an input (command)
+
+
+def test_control_mode_failing_at_the_dashboard_keeps_the_root_cause(
+    rtde_server: FakeRtdeServer,
+) -> None:
+    link = _link(UrRtdeArmFactory("127.0.0.1", 100.0), monitor=False)
+    link.start()
+    try:
+        _poll_until(link, lambda lk, r: lk.status.phase == "failed", timeout=15.0)
+        assert link.status.phase == "failed"
+        assert "dashboard" in link.status.last_error, link.status.last_error
+        assert link.status.last_error.startswith("connect failed: RuntimeError")
+        assert link.status.history[-1] == link.status.last_error  # not "worker exited"
+    finally:
+        link.close()
+
+
+def test_a_refused_connection_is_reported_with_its_reason() -> None:
+    link = _link(FakeArmSpec(connect_fails=True), monitor=False)
+    link.start()
+    try:
+        _poll_until(link, lambda lk, r: lk.status.phase == "failed", timeout=15.0)
+        assert link.status.last_error == (
+            "connect failed: ConnectionError: fake arm: connection refused"
+        )
+    finally:
+        link.close()
