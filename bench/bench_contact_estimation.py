@@ -28,36 +28,8 @@ from contact_estimation.estimator import (
 )
 from phri_common.taxels import TaxelCloudEncoder, msg_to_taxels
 from phri_description.description import SKIN_LINKS
-from skin_driver.layout import TAXEL_PITCH, cylindrical_patch
-
-
-def cylinder_patch(n: int, radius: float = 0.06) -> tuple[np.ndarray, np.ndarray]:
-    """About n taxels (7.5 mm pitch) on a cylinder along x, from skin_driver's layout generator.
-
-    One layout holds at most 16,384 taxels (the wire protocol's limit), so larger benches join
-    several layouts end to end along the axis.
-    """
-    per_ring = int(2 * np.pi * radius / TAXEL_PITCH)
-    rings = max(1, int(np.ceil(n / per_ring)))
-    positions, normals = [], []
-    for first in range(0, rings, 100):
-        count = min(100, rings - first)
-        start = first * TAXEL_PITCH
-        layout = cylindrical_patch(
-            "bench", "link", radius, (start, start + count * TAXEL_PITCH + 1e-9),
-            axis=(1.0, 0.0, 0.0),
-        )
-        positions.append(layout.positions)
-        normals.append(layout.normals)
-    return np.concatenate(positions)[:n], np.concatenate(normals)[:n]
-
-
-def pressed_forces(n: int, fraction: float, rng: np.random.Generator) -> np.ndarray:
-    forces = rng.uniform(0.0, 0.02, n)  # noise below σ_t
-    k = max(1, int(fraction * n))
-    start = rng.integers(0, n - k + 1)
-    forces[start : start + k] = rng.uniform(0.1, 1.0, k)
-    return forces
+from skin_driver.layout import cylinder_taxels
+from skin_driver.sim_board import pressed_block
 
 
 def timeit(fn: Callable[[], object], repeats: int) -> tuple[float, float]:
@@ -82,10 +54,10 @@ def main() -> None:
     print(f"{'case':<44}{'median':>10}{'p99':>10}")
 
     for n in (2_000, 10_000, 50_000):
-        pos, nrm = cylinder_patch(n)
+        pos, nrm = cylinder_taxels(n)
         est = ContactEstimator({"patch": "link"}, config)
         est.set_geometry("patch", pos, nrm)
-        forces = pressed_forces(n, args.contact_fraction, rng)
+        forces = pressed_block(n, args.contact_fraction, rng)
 
         def one_link(e: ContactEstimator = est, f: np.ndarray = forces) -> None:
             e.set_forces("patch", f, 0)
@@ -99,8 +71,8 @@ def main() -> None:
         msgs = []
         frames = []
         for i, link in enumerate(SKIN_LINKS):
-            pos, nrm = cylinder_patch(n)
-            forces = pressed_forces(n, args.contact_fraction, rng)
+            pos, nrm = cylinder_taxels(n)
+            forces = pressed_block(n, args.contact_fraction, rng)
             msg = TaxelCloudEncoder(pos, nrm, link).encode(forces, 0)
             msgs.append((f"p{i}", msg))
             frames.append((f"p{i}", forces))

@@ -24,11 +24,12 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from sensor_msgs.msg import PointCloud2
 
-from bench.bench_contact_estimation import cylinder_patch, pressed_forces
 from phri_common.stamps import stamp_to_ns
 from phri_common.taxels import TaxelCloudEncoder
 from phri_common.testing import isolate_ros_environment
 from phri_description.description import SKIN_LINKS, SKIN_PATCHES
+from skin_driver.layout import cylinder_taxels
+from skin_driver.sim_board import pressed_block
 
 PATCHES = dict(zip(SKIN_PATCHES, SKIN_LINKS, strict=True))
 
@@ -46,8 +47,8 @@ def publish(seconds: float, taxels: int, rate: float, ready: Any, done: Any) -> 
     pubs, encoders = {}, {}
     for patch, link in PATCHES.items():
         pubs[patch] = node.create_publisher(PointCloud2, f"skin/{patch}/taxels", 100)
-        encoders[patch] = TaxelCloudEncoder(*cylinder_patch(taxels), link)
-    forces = pressed_forces(taxels, 0.1, rng)
+        encoders[patch] = TaxelCloudEncoder(*cylinder_taxels(taxels), link)
+    forces = pressed_block(taxels, 0.1, rng)
     deadline = time.monotonic() + 20.0
     while any(p.get_subscription_count() == 0 for p in pubs.values()):
         rclpy.spin_once(node, timeout_sec=0.05)

@@ -33,6 +33,8 @@ import numpy as np
 
 from contact_estimation.estimator import ContactEstimator, EstimatorConfig
 from phri_common.records import ContactState
+from skin_driver.layout import cylinder_taxels
+from skin_driver.sim_board import pressed_block
 from wholebody_controller.config import SKIN_LINKS, ControllerConfig
 from wholebody_controller.controller import StepResult, WholeBodyController
 from wholebody_controller.kinematics import RobotKinematics
@@ -45,17 +47,6 @@ CENTER = np.array([-0.15, 0.0, 0.05])
 ROOT = Path(__file__).resolve().parents[1]
 
 Case = Callable[[int], object]
-
-
-def _patch_tools() -> tuple[Callable[..., Any], Callable[..., Any]]:
-    try:
-        from bench.bench_contact_estimation import cylinder_patch, pressed_forces
-    except ModuleNotFoundError:  # run as a script: bench/ itself is on sys.path
-        from bench_contact_estimation import (  # type: ignore[no-redef]
-            cylinder_patch,
-            pressed_forces,
-        )
-    return cylinder_patch, pressed_forces
 
 
 def control_step(
@@ -81,15 +72,14 @@ class SkinFrames:
     """Contact estimation inputs: 3 cylinder patches of n taxels, a pressed area that slides."""
 
     def __init__(self, taxels: int, frames: int = 64) -> None:
-        cylinder_patch, pressed_forces = _patch_tools()
         rng = np.random.default_rng(0)
         self.estimator = ContactEstimator({f"p{i}": link for i, link in enumerate(SKIN_LINKS)},
                                           EstimatorConfig())
-        positions, normals = cylinder_patch(taxels)
+        positions, normals = cylinder_taxels(taxels)
         for patch in self.estimator_patches:
             self.estimator.set_geometry(patch, positions, normals)
         # A pressed band (10 % of the patch) moving along the sequence: the centre slides.
-        base = pressed_forces(taxels, 0.1, rng)
+        base = pressed_block(taxels, 0.1, rng)
         self.forces = [np.roll(base, 3 * k) for k in range(frames)]
 
     @property

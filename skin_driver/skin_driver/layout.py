@@ -262,6 +262,32 @@ def cylindrical_patch(
     return SkinLayout(patch=patch, link=link, positions=positions, normals=radial)
 
 
+def cylinder_taxels(count: int, radius: float = 0.06) -> tuple[FloatArray, FloatArray]:
+    """Positions and normals of ``count`` taxels on a cylinder along the x axis (synthetic skin).
+
+    Rings of :func:`cylindrical_patch` at the 7.5 mm pitch, ``radius`` [m], starting at x = 0;
+    the first ``count`` taxels are returned as ``(count, 3)`` arrays [m] and unit normals. One
+    layout holds at most :data:`~skin_driver.protocol.MAX_TAXELS` taxels (the wire protocol's
+    limit), so larger sets join layouts of at most 100 rings end to end along the axis.
+    Benchmarks and tests use it for skins of any size.
+    """
+    if count < 1:
+        raise LayoutError(f"count must be a positive number of taxels, got {count}")
+    per_ring = max(1, math.floor(2 * math.pi * radius / TAXEL_PITCH + 1e-9))
+    rings = math.ceil(count / per_ring)
+    positions, normals = [], []
+    for first in range(0, rings, 100):
+        start = first * TAXEL_PITCH
+        layout = cylindrical_patch(
+            "synthetic", "link", radius,
+            (start, start + min(100, rings - first) * TAXEL_PITCH + 1e-9),
+            axis=(1.0, 0.0, 0.0),
+        )
+        positions.append(layout.positions)
+        normals.append(layout.normals)
+    return np.concatenate(positions)[:count], np.concatenate(normals)[:count]
+
+
 def save_layout(layout: SkinLayout, path: str | Path) -> None:
     """Write ``layout`` as a layout file (see module docstring)."""
     columns = list(REQUIRED_COLUMNS)

@@ -203,6 +203,24 @@ def press_pattern(
     return pattern
 
 
+def pressed_block(count: int, fraction: float, rng: np.random.Generator) -> FloatArray:
+    """Taxel forces [N] of one synthetic frame: a block of ``fraction`` of the taxels pressed.
+
+    Every taxel gets noise uniform in [0, 0.02) N (below the paper's σ_t = 0.05 N); a block
+    of ``max(1, ⌊fraction · count⌋)`` consecutive taxels at a random start gets
+    U[0.1, 1.0) N each. Benchmarks use it for contact estimation loads.
+    """
+    if count < 1 or not 0.0 <= fraction <= 1.0:
+        raise ValueError(
+            f"pressed_block needs count ≥ 1 and fraction in [0, 1], got {count}, {fraction}"
+        )
+    forces = rng.uniform(0.0, 0.02, count)
+    pressed = max(1, int(fraction * count))
+    start = int(rng.integers(0, count - pressed + 1))
+    forces[start : start + pressed] = rng.uniform(0.1, 1.0, pressed)
+    return forces
+
+
 def replay_pattern(recording: FloatArray, rate: float, loop: bool = True) -> Pattern:
     """Replay a (T, N) array of forces [N] sampled at ``rate`` [Hz]."""
     rec = np.asarray(recording, dtype=np.float64)

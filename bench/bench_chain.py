@@ -1,0 +1,384 @@
+"""Benchmark: the whole 500 Hz chain, end to end, each node in its own process as deployed.
+
+Simulated boards (one process and one pty per board) → ``skin_driver`` nodes (one per port) →
+``contact_estimation`` → ``wholebody_controller`` at ``--controller-rate``. This process stands
+in for the arm bridges and the base: it publishes ``/joint_states`` and ``/odom`` at
+``--inputs-rate``. Every link is pressed all the time (all three links in contact).
+
+Reported over the measured window (after start-up and ``--warmup``):
+
+* frames sent by each board and contact states of its link that reached the controller; a
+  frame that never arrived as a contact state is **dropped** (by the driver, the estimator or
+  DDS);
+* latency from a frame's last byte (the board's ``write()`` of it returned, wall clock) to
+  (a) the contact state's arrival in the controller process and (b) the end of the first control
+  cycle whose command used it: **frame end → command**. A frame superseded by the next one
+  before any cycle ran is counted as "not used" (the controller samples at its own rate);
+* CPU of every process (utime + stime from ``/proc``) as % of one core, the machine's busy cores
+  over the window from ``/proc/stat`` and its load average.
+
+How a command is attributed to its frame: the frame's index is coded into its press force. Board
+frame k presses its patch with ``F_k = F0 + δ·(k mod M)`` [N] (every taxel of the press > 0.5 N,
+so the driver's tare keeps their factory zero); the driver's moving average (window W) then
+publishes the mean of the last W pressed forces, and the estimator's resultant (9a) is that mean
+up to the ADC noise (≈ mN ≪ δ). The bench computes this expected value for every frame the board
+sent and matches each contact state to the frame, among those whose board time lies within
+±M/4 frames of the state's stamp (the stamp is the board time mapped to the host clock; it
+travels unchanged from driver to estimator to controller), whose expected force is closest,
+within δ/2. The controller process runs the real node class and entry point (``run_nodes``)
+with two probes: on every contact message it records (link, stamp, arrival time, |force|);
+after every control cycle that published a command, (end time, stamp of each link's contact
+state used). Commands map to frames through those stamps. Nothing in the node's code changes.
+
+Run: ``.venv/bin/python bench/bench_chain.py [--seconds 60] [--taxels 2000] [--boards 3]
+[--rate 500] [--executor single|events]``. Keep runs ≤ 2 min on a shared machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import multiprocessing as mp
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from phri_common.procstat import MachineCpu, load_line, process_cpu_s
+from phri_common.testing import isolate_ros_environment
+from phri_description.description import SKIN_LINKS, SKIN_PATCHES
+
+F0, DELTA, MODULUS = 10.0, 0.05, 200
+"""Press force code: frame k presses with F0 + DELTA·(k mod MODULUS) [N] (10–20 N)."""
+PRESS_RADIUS = 0.012
+"""Press radius [m]: a few taxels, each well above the driver's tare_max_shift (0.5 N)."""
+FILTER_WINDOW = 10
+"""The driver's moving-average window (its default, the paper's)."""
+
+
+# -- simulated boards ---------------------------------------------------------------------------
+def _board_process(index: int, port: str, layout_file: str, rate: float, stop: Any,
+                   queue: Any) -> None:
+    """One board on its own pty, pressed with the coded force; report per frame sent:
+    (board time [ns], write end [ns, wall clock], press force [µN])."""
+    from skin_driver.layout import load_layout
+    from skin_driver.sim_board import PtyEndpoint, SimBoard, press_pattern, run_boards
+
+    layout = load_layout(layout_file)
+    board = SimBoard(0, layout, noise_counts=2.0, seed=index)
+    unit = press_pattern(layout, force=1.0, radius=PRESS_RADIUS, period=0.0)(0.0)
+    sent: list[tuple[int, int, int]] = []
+    last = [0.0, 0.0]
+
+    def pattern(t: float) -> Any:
+        force = F0 + DELTA * (round(t * rate) % MODULUS)
+        last[:] = [t, force]
+        return unit * force
+
+    def on_sent(_board: int, _seq: int, t_ns: int) -> None:
+        sent.append((int(last[0] * 1e6) * 1000, t_ns, round(last[1] * 1e6)))
+
+    stats = run_boards(lambda: PtyEndpoint(port), [(board, pattern)], rate, stop,
+                       on_sent=on_sent)
+    queue.put((index, np.array(sent, dtype=np.int64).reshape(-1, 3), stats.late))
+
+
+# -- the controller process ---------------------------------------------------------------------
+def run_controller_probe(out: str, ros_args: Sequence[str]) -> int:
+    """The controller node as deployed (``run_nodes``), with recording probes (module doc)."""
+    from phri_common.ros_main import run_nodes
+    from wholebody_controller.node import WholeBodyControllerNode
+
+    links = list(SKIN_LINKS)
+    arrivals: list[tuple[int, int, int, int]] = []
+    commands: list[tuple[int, ...]] = []
+
+    class ProbedController(WholeBodyControllerNode):
+        def _on_contact(self, link: str, msg: Any) -> None:
+            now = time.time_ns()
+            super()._on_contact(link, msg)
+            state = self.contacts.get(link)
+            if state is not None:
+                force = round(float(np.linalg.norm(state.force)) * 1e6)  # [µN]
+                arrivals.append((links.index(link), state.stamp_ns, now, force))
+
+        def tick(self) -> None:
+            good = self.good_cycles
+            super().tick()
+            if self.good_cycles > good:
+                used = [self.contacts[k].stamp_ns if k in self.contacts else 0 for k in links]
+                commands.append((time.time_ns(), *used))
+                if len(commands) == 1:
+                    Path(out + ".ready").touch()
+
+        def destroy_node(self) -> None:
+            super().destroy_node()
+            np.savez(out, arrivals=np.array(arrivals, dtype=np.int64).reshape(-1, 4),
+                     commands=np.array(commands, dtype=np.int64).reshape(-1, 1 + len(links)))
+
+    return run_nodes(lambda: [ProbedController()], "bench_chain_controller",
+                     ["bench_chain", "--ros-args", *ros_args])
+
+
+# -- start-up -----------------------------------------------------------------------------------
+def _write_layouts(tmp: Path, boards: int, taxels: int) -> list[Path]:
+    from skin_driver.layout import rectangular_patch, save_layout
+
+    side = round(taxels**0.5)
+    files = []
+    for i in range(boards):
+        layout = rectangular_patch(SKIN_PATCHES[i], SKIN_LINKS[i], side, taxels // side)
+        files.append(tmp / f"{SKIN_PATCHES[i]}.yaml")
+        save_layout(layout, files[-1])
+    return files
+
+
+def _start_nodes(tmp: Path, layouts: list[Path], args: argparse.Namespace,
+                 ) -> dict[str, subprocess.Popen[bytes]]:
+    bindir = Path(sys.executable).parent
+    env = dict(os.environ, PHRI_EXECUTOR=args.executor)
+    procs: dict[str, subprocess.Popen[bytes]] = {}
+    for i, layout in enumerate(layouts):
+        port = tmp / f"port{i}"
+        deadline = time.monotonic() + 30.0
+        while not port.exists() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        procs[f"skin_driver {i}"] = subprocess.Popen([
+            str(bindir / "skin_driver_node"), "--ros-args", "-r", f"__node:=skin_driver_{i}",
+            "-p", f"port:={port}", "-p", "board_ids:=[0]", "-p", f"layout_files:=['{layout}']",
+        ], env=env)
+    procs["contact_estimation"] = subprocess.Popen(
+        [str(bindir / "contact_estimation_node"), "--ros-args",
+         "-p", f"publish_markers:={'true' if args.markers else 'false'}"], env=env)
+    procs["wholebody_controller"] = subprocess.Popen(
+        [sys.executable, __file__, "--controller-probe", str(tmp / "controller"),
+         "--ros-args", "-p", f"rate_hz:={args.controller_rate}"], env=env)
+    return procs
+
+
+class Inputs:
+    """Publishes the controller's other inputs (joint states, odometry) from this process."""
+
+    def __init__(self, rate: float) -> None:
+        import rclpy
+        from nav_msgs.msg import Odometry
+        from sensor_msgs.msg import JointState
+
+        from wholebody_controller.kinematics import JOINT_NAMES
+
+        rclpy.init()
+        self.node = rclpy.create_node("bench_chain_inputs")
+        self._joints = self.node.create_publisher(JointState, "/joint_states", 10)
+        self._odom = self.node.create_publisher(Odometry, "/odom", 10)
+        q_arms = [0.3, -1.2, 1.5, -1.0, -1.57, 0.0, -0.3, -1.9, -1.5, -1.0, 1.57, 0.0]
+        self._joint_msg = JointState(name=list(JOINT_NAMES[3:]), position=q_arms)
+        self._odom_msg = Odometry()
+        self._odom_msg.pose.pose.orientation.w = 1.0
+        self.period = 1.0 / rate
+        self._next = time.monotonic()
+
+    def run_until(self, done: Any, timeout: float) -> bool:
+        """Publish at the rate until ``done()`` or ``timeout`` [s]; return ``done()``."""
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            if done():
+                return True
+            self._joints.publish(self._joint_msg)
+            self._odom.publish(self._odom_msg)
+            self._next = max(self._next + self.period, time.monotonic() - self.period)
+            time.sleep(max(0.0, self._next - time.monotonic()))
+        return bool(done())
+
+    def close(self) -> None:
+        import rclpy
+
+        self.node.destroy_node()
+        rclpy.try_shutdown()
+
+
+# -- analysis -----------------------------------------------------------------------------------
+def expected_forces(pressed_un: np.ndarray, window: int = FILTER_WINDOW) -> np.ndarray:
+    """The resultant [µN] the driver's moving average makes of each sent frame's press force:
+    the mean of the last ``window`` frames sent (fewer at the start)."""
+    sums = np.cumsum(np.concatenate([[0.0], pressed_un.astype(np.float64)]))
+    ends = np.arange(1, len(pressed_un) + 1)
+    starts = np.maximum(ends - window, 0)
+    return np.asarray((sums[ends] - sums[starts]) / (ends - starts))
+
+
+def match_frames(stamps: np.ndarray, forces_un: np.ndarray, sent: np.ndarray,
+                 period_ns: float) -> np.ndarray:
+    """Index of the sent frame each contact state came from (−1: none matches; module doc).
+
+    ``sent`` rows: board time [ns], write end [ns], press force [µN]. Candidates are the
+    frames within ±MODULUS/4 frames of the stamp's board time; the match is the one whose
+    expected filtered force is closest, if within DELTA/2.
+    """
+    board_ns = sent[:, 0]
+    offset = int(np.min(sent[:, 1] - board_ns))  # host clock − board clock, to a few ms
+    expected = expected_forces(sent[:, 2])
+    centre = np.searchsorted(board_ns, stamps - offset)
+    span = MODULUS // 4
+    candidates = np.clip(centre[:, None] + np.arange(-span, span + 1), 0, len(sent) - 1)
+    near = np.abs(board_ns[candidates] - (stamps - offset)[:, None]) <= span * period_ns
+    error = np.where(near, np.abs(expected[candidates] - forces_un[:, None]), np.inf)
+    best = np.argmin(error, axis=1)
+    rows = np.arange(len(stamps))
+    ok = error[rows, best] < DELTA * 1e6 / 2
+    return np.where(ok, candidates[rows, best], -1)
+
+
+def _ms(x: np.ndarray) -> str:
+    if x.size == 0:
+        return "n/a"
+    return (f"median {np.median(x) / 1e6:.2f} ms, p99 {np.percentile(x, 99) / 1e6:.2f} ms, "
+            f"max {x.max() / 1e6:.2f} ms")
+
+
+def analyse_link(i: int, sent: np.ndarray, records: Any, window: tuple[int, int],
+                 period_ns: float) -> tuple[dict[str, int], np.ndarray, np.ndarray]:
+    """Counts, frame end → contact arrival and frame end → command latencies [ns] of link i."""
+    write_end = sent[:, 1]
+    in_window = (write_end >= window[0]) & (write_end < window[1])
+    arrivals = records["arrivals"]
+    arrivals = arrivals[arrivals[:, 0] == i]
+    idx = match_frames(arrivals[:, 1], arrivals[:, 3], sent, period_ns)
+    arrived = np.zeros(len(sent), dtype=bool)
+    arrived[idx[idx >= 0]] = True
+    # First arrival of each frame, and the frame of each stamp.
+    first = {int(j): int(t) for j, t in zip(idx[::-1], arrivals[::-1, 2], strict=True)}
+    frame_of = {int(s): int(j) for s, j in zip(arrivals[:, 1], idx, strict=True) if j >= 0}
+    to_state = np.array([first[j] - write_end[j]
+                         for j in np.flatnonzero(in_window).tolist() if j in first],
+                        dtype=np.int64)
+    commands = records["commands"]
+    used = np.array([frame_of.get(int(s), -1) for s in commands[:, 1 + i]], dtype=np.int64)
+    firsts, where = np.unique(used, return_index=True)
+    keep = (firsts >= 0) & in_window[np.maximum(firsts, 0)]
+    to_command = commands[where[keep], 0] - write_end[firsts[keep]]
+    in_arrivals = (arrivals[:, 2] >= window[0]) & (arrivals[:, 2] < window[1])
+    counts = {
+        "sent": int(in_window.sum()),
+        "arrived": int((arrived & in_window).sum()),
+        "used": int(keep.sum()),
+        "unmatched": int(((idx < 0) & in_arrivals).sum()),
+    }
+    return counts, to_state, to_command
+
+
+def report(args: argparse.Namespace, sent: dict[int, tuple[np.ndarray, int]], records: Any,
+           window: tuple[int, int], cpu: dict[str, float], busy_cores: float) -> None:
+    """Print the results (see the module docstring)."""
+    period_ns = 1e9 / args.rate
+    seconds = (window[1] - window[0]) / 1e9
+    print(f"\nchain: {args.boards} boards × {args.taxels} taxels at {args.rate:g} Hz → "
+          f"skin_driver ×{args.boards} → contact_estimation (markers "
+          f"{'on' if args.markers else 'off'}) → wholebody_controller at "
+          f"{args.controller_rate:g} Hz; executor '{args.executor}'; {seconds:.1f} s measured")
+    all_state, all_command = [], []
+    for i in range(args.boards):
+        counts, to_state, to_command = analyse_link(i, sent[i][0], records, window, period_ns)
+        all_state.append(to_state)
+        all_command.append(to_command)
+        dropped = counts["sent"] - counts["arrived"]
+        print(f"  {SKIN_LINKS[i]}: frames sent {counts['sent']} (board late skips, whole run: "
+              f"{sent[i][1]}), dropped {dropped} ({100 * dropped / max(counts['sent'], 1):.2f} "
+              f"%), used by a command {counts['used']}, contact states matching no frame "
+              f"{counts['unmatched']}")
+    state_ns, command_ns = np.concatenate(all_state), np.concatenate(all_command)
+    commands = records["commands"]
+    n_cmd = int(((commands[:, 0] >= window[0]) & (commands[:, 0] < window[1])).sum())
+    print(f"  frame end → contact state in the controller: {_ms(state_ns)}")
+    print(f"  frame end → command computed from it:       {_ms(command_ns)}")
+    print(f"  commands: {n_cmd / seconds:.1f} per second")
+    print("  CPU, % of one core:")
+    for name, share in cpu.items():
+        print(f"    {name:28s} {100 * share:6.1f}")
+    chain = sum(v for k, v in cpu.items() if k.split()[0] in
+                ("skin_driver", "contact_estimation", "wholebody_controller"))
+    print(f"    {'chain (drivers+estimation+controller)':28s} {100 * chain:6.1f}")
+    print(f"  machine: {busy_cores:.2f} of {os.cpu_count()} cores busy over the window "
+          f"(all processes, other jobs included); {load_line()}")
+
+
+def measure(args: argparse.Namespace, tmp: Path) -> None:
+    """Start everything, measure the window, stop everything, report."""
+    ctx = mp.get_context("fork")
+    stop, queue = ctx.Event(), ctx.Queue()
+    layouts = _write_layouts(tmp, args.boards, args.taxels)
+    boards = [ctx.Process(target=_board_process, args=(i, str(tmp / f"port{i}"), str(f),
+                                                       args.rate, stop, queue))
+              for i, f in enumerate(layouts)]
+    for b in boards:
+        b.start()
+    procs = _start_nodes(tmp, layouts, args)
+    inputs = Inputs(args.inputs_rate)
+    try:
+        ready = tmp / "controller.ready"
+        if not inputs.run_until(ready.exists, 90.0):
+            raise RuntimeError("the controller computed no command within 90 s of start-up")
+        inputs.run_until(lambda: False, args.warmup)
+        pids = {name: p.pid for name, p in procs.items()}
+        pids.update({f"sim board {i}": int(b.pid or 0) for i, b in enumerate(boards)})
+        pids["bench (joint states, odom)"] = os.getpid()
+        cpu0, machine0, t0 = {k: process_cpu_s(p) for k, p in pids.items()}, MachineCpu.now(), \
+            time.time_ns()
+        inputs.run_until(lambda: False, args.seconds)
+        cpu1, machine1, t1 = {k: process_cpu_s(p) for k, p in pids.items()}, MachineCpu.now(), \
+            time.time_ns()
+    finally:
+        stop.set()
+        sent = {}
+        for _ in boards:
+            i, frames, late = queue.get(timeout=30)
+            sent[i] = (frames, late)
+        for p in procs.values():
+            p.send_signal(signal.SIGINT)
+        for p in procs.values():
+            p.wait(30)
+        for b in boards:
+            b.join(10)
+        inputs.close()
+    cpu = {k: (cpu1[k] - cpu0[k]) / ((t1 - t0) / 1e9) for k in pids}
+    records = np.load(tmp / "controller.npz")
+    report(args, sent, records, (t0, t1), cpu, machine1.busy_cores_since(machine0))
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv and argv[0] == "--controller-probe":
+        rest = argv[2:]
+        return run_controller_probe(argv[1], rest[1:] if rest[:1] == ["--ros-args"] else rest)
+    p = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
+    p.add_argument("--seconds", type=float, default=60.0, help="measured seconds")
+    p.add_argument("--warmup", type=float, default=3.0, help="seconds ignored after start-up")
+    p.add_argument("--boards", type=int, default=3, choices=(1, 2, 3))
+    p.add_argument("--taxels", type=int, default=2000, help="taxels per board")
+    p.add_argument("--rate", type=float, default=500.0, help="board frame rate [Hz]")
+    p.add_argument("--controller-rate", type=float, default=500.0, help="[Hz]")
+    p.add_argument("--inputs-rate", type=float, default=100.0,
+                   help="joint state and odometry rate of this process [Hz]")
+    p.add_argument("--executor", choices=("single", "events"), default="single",
+                   help="PHRI_EXECUTOR of the node processes (phri_common.ros_main)")
+    p.add_argument("--no-markers", dest="markers", action="store_false",
+                   help="contact_estimation publish_markers:=false")
+    args = p.parse_args(argv)
+    isolate_ros_environment()
+    print(load_line())
+    tmp = Path(tempfile.mkdtemp(prefix="bench_chain_"))
+    try:
+        measure(args, tmp)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
