@@ -1,23 +1,62 @@
 """Process entry point shared by every phri node: spin until Ctrl-C / SIGTERM, then clean up.
 
-Why not ``rclpy.experimental.events_executor.EventsExecutor``: with rclpy 9.1 (Kilted wheels) its
-``spin()`` busy-loops at ~96 % of a core as soon as a node owns a timer, and it ignores SIGINT and
-SIGTERM (measured; see docs/skin_driver.md "Executor"). A node that cannot be stopped with Ctrl-C
-cannot send its final zero command, so every phri process uses the single-threaded executor with
-an explicit stop flag set from the signal handlers.
+Executor. ``PHRI_EXECUTOR`` picks it per process: ``single`` (default, rclpy's
+``SingleThreadedExecutor``) or ``events`` (``rclpy.experimental.events_executor.EventsExecutor``).
+Measured with rclpy 9.1.2 from the Kilted wheels (docs/interfaces.md "Processes and executor";
+``bench/bench_executor.py``):
+
+* ``EventsExecutor.spin()`` (the blocking C++ loop) busy-loops at 50–100 % of a core whether or
+  not a node owns a timer, runs no timer callback, and never returns to Python, so Python signal
+  handlers never run and SIGINT/SIGTERM are ignored (only SIGKILL ends the process).
+* ``EventsExecutor.spin_once(timeout_sec=0.1)`` in a Python loop does none of that: timers fire
+  on time (a 500 Hz timer: 499 callbacks/s), the process idles at ≈ 0 %, other Python threads
+  keep the GIL, and the signal handlers run between calls (≤ 0.1 s to stop).
+
+So both executors are driven the same way here: ``spin_once`` with a 0.1 s timeout in a loop
+that ends when the stop flag set by the SIGINT/SIGTERM handlers is up; ``spin()`` is never
+called. The default stays the single-threaded executor (rclpy's supported one) until the
+events executor is no longer experimental.
 """
 
 from __future__ import annotations
 
+import os
 import signal
 import sys
 from collections.abc import Callable, Sequence
 from types import FrameType
 
 import rclpy
-from rclpy.executors import SingleThreadedExecutor
+from rclpy.context import Context
+from rclpy.executors import Executor, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
+
+EXECUTOR_ENV = "PHRI_EXECUTOR"
+"""Environment variable that picks the executor of every phri process."""
+EXECUTORS = ("single", "events")
+"""Its allowed values; the first is the default."""
+
+
+def make_executor(kind: str | None = None, context: Context | None = None) -> Executor:
+    """The executor named by ``kind`` (default: ``$PHRI_EXECUTOR``, else ``single``).
+
+    Drive it with ``spin_once(timeout_sec=…)`` only (module docstring).
+
+    Raises:
+        ValueError: an unknown name (names the variable, the value and the allowed ones).
+    """
+    if kind is None:
+        kind = os.environ.get(EXECUTOR_ENV, "") or EXECUTORS[0]
+    if kind == "single":
+        return SingleThreadedExecutor(context=context)
+    if kind == "events":
+        from rclpy.experimental.events_executor import EventsExecutor
+
+        return EventsExecutor(context=context)
+    raise ValueError(
+        f"environment variable {EXECUTOR_ENV} refused value {kind!r}: allowed {list(EXECUTORS)}"
+    )
 
 
 def run_nodes(
@@ -28,8 +67,8 @@ def run_nodes(
     """Create nodes, spin them until SIGINT/SIGTERM, destroy them (nodes send their zero command
     in ``destroy_node``) and return the process exit code.
 
-    A ``ValueError`` while creating the nodes (e.g. a refused parameter) is printed with the node
-    name and gives exit code 2 instead of a traceback.
+    A ``ValueError`` while creating the executor or the nodes (e.g. a refused parameter) is
+    printed with the node name and gives exit code 2 instead of a traceback.
     """
     rclpy.init(
         args=list(args) if args is not None else sys.argv,
@@ -46,11 +85,11 @@ def run_nodes(
     nodes: Sequence[Node] = ()
     try:
         try:
+            executor = make_executor()
             nodes = make_nodes()
         except ValueError as err:
             print(f"{name}: {err}", file=sys.stderr)
             return 2
-        executor = SingleThreadedExecutor()
         for node in nodes:
             executor.add_node(node)
         while not stop and rclpy.ok():

@@ -23,7 +23,6 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.context import Context
 from rclpy.node import Node
@@ -35,6 +34,7 @@ from std_srvs.srv import Trigger
 
 from phri_common import paper
 from phri_common.params import ParameterValueError, ParamSpec, ParamValue
+from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
 from phri_common.taxels import TaxelCloudEncoder
@@ -410,32 +410,14 @@ class SkinDriverNode(Node):
 
 
 def main(args: Sequence[str] | None = None) -> int:
-    """Console entry point ``skin_driver_node [--ros-args …]``.
+    """Console entry point ``skin_driver_node [--ros-args …]``: run until SIGINT/SIGTERM.
 
-    The serial thread does the per-frame work; the executor only runs timers and services, so
-    it is the ``SingleThreadedExecutor``. The experimental ``EventsExecutor`` (design §5) was
-    measured here with this node: it idles at 20–90 % CPU, starves the serial thread of the GIL
-    and ignores SIGTERM, so it is not used (see docs/skin_driver.md).
+    The serial thread does the per-frame work; the executor only runs timers and services.
+    ``phri_common.ros_main.run_nodes`` drives it (``PHRI_EXECUTOR``: ``single`` by default, or
+    ``events``; never ``EventsExecutor.spin()``, which busy-loops and ignores signals). A refused
+    parameter exits with code 2 and a message naming it.
     """
-    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-
-    rclpy.init(args=None if args is None else list(args))
-    node: SkinDriverNode | None = None
-    try:
-        node = SkinDriverNode()
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        executor.spin()
-    except ParameterValueError as err:
-        rclpy.logging.get_logger("skin_driver").fatal(str(err))
-        return 2
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None:
-            node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_nodes(lambda: [SkinDriverNode()], "skin_driver", args)
 
 
 if __name__ == "__main__":

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import binascii
 import struct
+import subprocess
+import sys
 import threading
 import time
 from pathlib import Path
@@ -342,3 +344,12 @@ def test_duplicate_board_ids_are_refused_naming_value_and_rule(tmp_path: Path) -
 
     with pytest.raises(ParameterValueError, match=r"'board_ids' refused value \[3, 3\]: .*unique"):
         load_patches([3, 3], [str(tmp_path / "a.yaml"), str(tmp_path / "b.yaml")])
+
+
+def test_node_process_refuses_a_bad_parameter_with_exit_code_2(tmp_path: Path) -> None:
+    """The console entry point (phri_common.ros_main.run_nodes) names the refused parameter."""
+    exe = Path(sys.executable).with_name("skin_driver_node")
+    result = subprocess.run([str(exe), "--ros-args", "-p", "filter_window:=0"], cwd=tmp_path,
+                            capture_output=True, text=True, timeout=60, check=False)
+    assert result.returncode == 2
+    assert "parameter 'filter_window'" in result.stderr and "refused value 0" in result.stderr

@@ -1,0 +1,115 @@
+"""phri_common.ros_main: executor choice (PHRI_EXECUTOR) and stopping on SIGINT/SIGTERM.
+
+The process tests run ``run_nodes`` in a child with a 500 Hz timer: it must call the timer
+about 500 times a second, and end with exit code 0 and its ``destroy_node`` run within 2 s of
+SIGINT or SIGTERM, with either executor. (``EventsExecutor.spin()`` would fail both: it runs no
+timer and ignores the signals; see the module docstring.)
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import pytest
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
+
+from phri_common.ros_main import EXECUTOR_ENV, EXECUTORS, make_executor
+
+CHILD = textwrap.dedent("""
+    import sys, time
+    import rclpy
+    from phri_common.ros_main import run_nodes
+
+    class Ticker(rclpy.node.Node):
+        def __init__(self):
+            super().__init__("ticker")
+            self.ticks = 0
+            self.start = time.monotonic()
+            self.create_timer(0.002, self.tick)
+            print("ready", flush=True)
+
+        def tick(self):
+            self.ticks += 1
+
+        def destroy_node(self):
+            print(f"destroyed {self.ticks / (time.monotonic() - self.start):.0f}", flush=True)
+            super().destroy_node()
+
+    sys.exit(run_nodes(lambda: [Ticker()], "ticker"))
+""")
+
+
+def start_child(executor: str) -> subprocess.Popen[str]:
+    env = dict(os.environ, **{EXECUTOR_ENV: executor})
+    return subprocess.Popen([sys.executable, "-c", CHILD], env=env, text=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+
+
+def test_default_executor_is_the_single_threaded_one(
+    monkeypatch: pytest.MonkeyPatch, ros_context: Context
+) -> None:
+    monkeypatch.delenv(EXECUTOR_ENV, raising=False)
+    assert EXECUTORS[0] == "single"
+    executor = make_executor(context=ros_context)
+    assert isinstance(executor, SingleThreadedExecutor)
+    executor.shutdown()
+
+
+def test_events_executor_is_chosen_by_the_environment(
+    monkeypatch: pytest.MonkeyPatch, ros_context: Context
+) -> None:
+    monkeypatch.setenv(EXECUTOR_ENV, "events")
+    executor = make_executor(context=ros_context)
+    assert type(executor).__name__ == "EventsExecutor"
+    executor.shutdown()
+
+
+def test_unknown_executor_is_refused_naming_variable_value_and_choices(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setenv(EXECUTOR_ENV, "multi")
+    with pytest.raises(ValueError, match=r"PHRI_EXECUTOR refused value 'multi'.*'single'"):
+        make_executor()
+
+
+@pytest.mark.parametrize("executor", EXECUTORS)
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_run_nodes_runs_timers_and_stops_on_signal(executor: str, sig: int) -> None:
+    proc = start_child(executor)
+    try:
+        assert proc.stdout is not None
+        assert proc.stdout.readline().strip() == "ready"
+        time.sleep(1.0)
+        proc.send_signal(sig)
+        out, err = proc.communicate(timeout=2.0)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0, err[-2000:]
+    rate = float(out.split("destroyed")[1])
+    assert 350 <= rate <= 510  # 500 Hz timer; loose floor for a loaded shared machine
+
+
+def test_run_nodes_refuses_an_unknown_executor_with_exit_code_2() -> None:
+    proc = start_child("fastest")
+    _out, err = proc.communicate(timeout=30.0)
+    assert proc.returncode == 2
+    assert "ticker: environment variable PHRI_EXECUTOR refused value 'fastest'" in err
+
+
+def test_interfaces_page_documents_the_executor_variable_its_values_and_default() -> None:
+    from pathlib import Path
+
+    page = (Path(__file__).resolve().parents[2] / "docs" / "interfaces.md").read_text()
+    rows = [line for line in page.splitlines() if line.startswith(f"| `{EXECUTOR_ENV}` |")]
+    assert len(rows) == 1
+    cells = [c.strip() for c in rows[0].strip("|").split("|")]
+    assert cells[1] == ", ".join(f"`{v}`" for v in EXECUTORS)
+    assert cells[2] == f"`{EXECUTORS[0]}`"
