@@ -79,3 +79,44 @@ def contact_markers(state: ContactState, scales: MarkerScales | None = None) -> 
     region.pose.position = _point(0.5 * (state.region_min + state.region_max))
     region.pose.orientation.w = 1.0
     return [sphere, force, torque, region]
+
+
+class MarkerThrottle:
+    """Decides, per link, whether a contact state's markers are published (pure).
+
+    rviz draws at display rate, while contact states come at the skin rate (500 Hz per link):
+    markers go out at most ``rate_hz`` times a second per link, except that a change of
+    ``in_contact`` (contact made, or lost: its markers are deleted) is always published at once.
+    ``rate_hz = 0``: with every contact state.
+
+    Args:
+        rate_hz: largest marker rate per link [Hz], ≥ 0.
+    """
+
+    def __init__(self, rate_hz: float) -> None:
+        self.rate_hz = rate_hz
+        self._last: dict[str, tuple[float, bool]] = {}
+
+    @property
+    def rate_hz(self) -> float:
+        """The marker rate limit per link [Hz] (0 = none)."""
+        return self._rate_hz
+
+    @rate_hz.setter
+    def rate_hz(self, value: float) -> None:
+        if not (value >= 0.0 and np.isfinite(value)):
+            raise ValueError(f"marker rate [Hz] refused value {value}: allowed [0, inf)")
+        self._rate_hz = float(value)
+
+    def due(self, link: str, in_contact: bool, now_s: float) -> bool:
+        """Whether to publish ``link``'s markers for a state at ``now_s`` [s, any clock]."""
+        last = self._last.get(link)
+        if (
+            last is None
+            or self._rate_hz == 0.0
+            or last[1] != in_contact
+            or now_s - last[0] >= 1.0 / self._rate_hz - 1e-9  # exact periods count
+        ):
+            self._last[link] = (now_s, in_contact)
+            return True
+        return False

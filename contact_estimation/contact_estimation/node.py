@@ -7,7 +7,8 @@ Thin wrapper around :class:`contact_estimation.estimator.ContactEstimator`. Inte
   patch in ``patches``;
 * publishes ``contacts/<link>`` (sensor_msgs/PointCloud2, see phri_common.contact) once for
   every accepted frame of one of the link's patches;
-* publishes ``contacts/markers`` (visualization_msgs/MarkerArray) when ``publish_markers``;
+* publishes ``contacts/markers`` (visualization_msgs/MarkerArray) when ``publish_markers``,
+  per link at most ``marker_rate_hz`` times a second and whenever contact is made or lost;
 * publishes ``/diagnostics`` (diagnostic_msgs/DiagnosticArray) every ``diagnostics_period``.
 
 A refused frame (malformed message, NaN/Inf anywhere, a force beyond ``max_taxel_force``, an
@@ -20,6 +21,7 @@ from __future__ import annotations
 
 import math
 import sys
+import time
 from collections.abc import Sequence
 from functools import partial
 from typing import Any
@@ -38,7 +40,7 @@ from contact_estimation.estimator import (
     EstimatorConfig,
     InvalidTaxelData,
 )
-from contact_estimation.markers import MarkerScales, contact_markers
+from contact_estimation.markers import MarkerScales, MarkerThrottle, contact_markers
 from phri_common.contact import contact_to_msg
 from phri_common.params import ParamSpec, ParamValue
 from phri_common.ros_main import run_nodes
@@ -66,6 +68,9 @@ PARAMS: list[ParamSpec] = [
               "saturates at ≈ 32 N)", unit="N", low=MAX_TAXEL_FORCE_RANGE[0],
               high=MAX_TAXEL_FORCE_RANGE[1]),
     ParamSpec("publish_markers", True, "publish rviz markers on contacts/markers"),
+    ParamSpec("marker_rate_hz", 30.0, "largest rate of the markers of each link (a contact "
+              "made or lost is always published at once); 0 = with every contact state",
+              unit="Hz", low=0.0, high=1000.0),
     ParamSpec("marker_force_scale", 0.01, "force arrow length per newton", unit="m/N",
               low=0.0, high=10.0),
     ParamSpec("marker_torque_scale", 0.1, "torque arrow length per N·m", unit="m/(N·m)",
@@ -123,6 +128,7 @@ class ContactEstimationNode(Node):
         self._patch_links = patch_link_map(patches, links)
         self._estimator = ContactEstimator(self._patch_links, config_from_values(self._values))
         self._scales = self._marker_scales(self._values)
+        self._marker_throttle = MarkerThrottle(float(self._values["marker_rate_hz"]))
         self._received = dict.fromkeys(patches, 0)
         self._refused = dict.fromkeys(patches, 0)
         self._last_error: dict[str, str] = dict.fromkeys(patches, "")
@@ -156,6 +162,7 @@ class ContactEstimationNode(Node):
         config = config_from_values(values)  # raises ValueError → change refused
         self._estimator.reconfigure(config)
         self._scales = self._marker_scales(values)
+        self._marker_throttle.rate_hz = float(values["marker_rate_hz"])
         period = float(values["diagnostics_period"])
         if period != float(self._values["diagnostics_period"]):
             self._diag_timer.timer_period_ns = int(period * 1e9)
@@ -181,7 +188,9 @@ class ContactEstimationNode(Node):
             )
             return
         self._state_pubs[link].publish(contact_to_msg(state))
-        if self._values["publish_markers"]:
+        if self._values["publish_markers"] and self._marker_throttle.due(
+            link, state.in_contact, time.monotonic()
+        ):
             self._marker_pub.publish(MarkerArray(markers=contact_markers(state, self._scales)))
 
     def _publish_diagnostics(self) -> None:
