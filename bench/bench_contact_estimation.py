@@ -26,6 +26,7 @@ from contact_estimation.estimator import (
     check_forces,
     check_geometry_values,
 )
+from phri_common.procstat import load_line
 from phri_common.taxels import TaxelCloudEncoder, msg_to_taxels
 from phri_description.description import SKIN_LINKS
 from skin_driver.layout import cylinder_taxels
@@ -48,6 +49,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=2000)
     parser.add_argument("--contact-fraction", type=float, default=0.1)
     args = parser.parse_args()
+    print(load_line())
     rng = np.random.default_rng(0)
     config = EstimatorConfig()
     print(f"contact fraction {args.contact_fraction:.0%}, {args.repeats} repeats; times in µs")

@@ -24,6 +24,7 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from sensor_msgs.msg import PointCloud2
 
+from phri_common.procstat import load_line
 from phri_common.stamps import stamp_to_ns
 from phri_common.taxels import TaxelCloudEncoder
 from phri_common.testing import isolate_ros_environment
@@ -76,6 +77,8 @@ def main() -> None:
     parser.add_argument("--taxels", type=int, default=2000)
     parser.add_argument("--rate", type=float, default=500.0)
     args = parser.parse_args()
+    print(load_line())
+    print(f"node executor (PHRI_EXECUTOR): {os.environ.get('PHRI_EXECUTOR') or 'single'}")
     isolate_ros_environment()
     exe = Path(sys.executable).with_name("contact_estimation_node")
     node_proc = subprocess.Popen(

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from contact_estimation.estimator import ContactEstimator, EstimatorConfig
+from phri_common.procstat import load_line
 from phri_common.records import ContactState
 from skin_driver.layout import cylinder_taxels
 from skin_driver.sim_board import pressed_block
@@ -355,6 +356,7 @@ def main() -> None:
     parser.add_argument("--skip-node", action="store_true")
     parser.add_argument("--peer", type=float, default=None, help=argparse.SUPPRESS)
     args = parser.parse_args()
+    print(load_line())
     if args.peer is not None:
         run_peer(args.peer)
         return

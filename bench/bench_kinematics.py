@@ -11,6 +11,7 @@ import time
 
 import numpy as np
 
+from phri_common.procstat import load_line
 from phri_description.description import SKIN_LINKS
 from wholebody_controller.kinematics import RobotKinematics
 
@@ -18,6 +19,7 @@ LINKS = SKIN_LINKS
 
 
 def main(iterations: int = 20000) -> None:
+    print(load_line())
     kin = RobotKinematics()
     rng = np.random.default_rng(0)
     qs = rng.uniform(-3.0, 3.0, (iterations, 15))

@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from phri_common.procstat import load_line
 from phri_common.testing import isolate_ros_environment
 from phri_sim.scenarios import SCENARIOS, start_scenario
 from phri_sim.sim import Simulation
@@ -94,7 +95,7 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=5.0, help="sim time per scenario [s]")
     parser.add_argument("--scenarios", nargs="*", default=list(SCENARIOS))
     args = parser.parse_args()
-    print(f"load average before: {os.getloadavg()[0]:.2f} (cores: {os.cpu_count()})")
+    print(f"before: {load_line()}")
     for skins in (False, True):
         t = step_times(skins) * 1e6
         print(f"step {'with' if skins else 'without'} skins: median {np.median(t):.0f} µs, "

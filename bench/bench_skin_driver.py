@@ -30,6 +30,8 @@ from typing import Any
 
 import numpy as np
 
+from phri_common.procstat import load_line
+
 GAIN, OFFSET, BASE = 0.0005, 1000.0, 3000.0
 CODE_MOD = 60_000
 
@@ -86,6 +88,7 @@ def main() -> int:
     p.add_argument("--rate", type=float, default=500.0, help="[Hz]")
     p.add_argument("--window", type=int, default=10, help="driver filter_window [frames]")
     args = p.parse_args()
+    print(load_line())
 
     os.environ.setdefault("ROS_DOMAIN_ID", str(1 + os.getpid() % 100))
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
