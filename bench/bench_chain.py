@@ -30,8 +30,12 @@ with two probes: on every contact message it records (link, stamp, arrival time,
 after every control cycle that published a command, (end time, stamp of each link's contact
 state used). Commands map to frames through those stamps. Nothing in the node's code changes.
 
+``--composed HZ`` runs the drivers and the estimator in one process instead
+(``phri_bringup.skin_contact_node``: direct hand-off, taxel topics at HZ).
+
 Run: ``.venv/bin/python bench/bench_chain.py [--seconds 60] [--taxels 2000] [--boards 3]
-[--rate 500] [--executor single|events]``. Keep runs ≤ 2 min on a shared machine.
+[--rate 500] [--executor single|events] [--composed 50] [--no-markers]``. Keep runs ≤ 2 min
+on a shared machine.
 """
 
 from __future__ import annotations
@@ -140,23 +144,46 @@ def _write_layouts(tmp: Path, boards: int, taxels: int) -> list[Path]:
     return files
 
 
+def _composed_params(tmp: Path, layouts: list[Path], args: argparse.Namespace) -> Path:
+    """Parameter file of the composed process: one section per driver node, one estimator."""
+    import yaml
+
+    sections: dict[str, Any] = {
+        f"skin_driver_{i}": {"ros__parameters": {
+            "port": str(tmp / f"port{i}"), "board_ids": [0], "layout_files": [str(layout)],
+            "taxel_publish_rate_hz": float(args.composed)}}
+        for i, layout in enumerate(layouts)
+    }
+    sections["contact_estimation"] = {"ros__parameters": {"publish_markers": args.markers}}
+    path = tmp / "composed.yaml"
+    path.write_text(yaml.safe_dump(sections))
+    return path
+
+
 def _start_nodes(tmp: Path, layouts: list[Path], args: argparse.Namespace,
                  ) -> dict[str, subprocess.Popen[bytes]]:
     bindir = Path(sys.executable).parent
     env = dict(os.environ, PHRI_EXECUTOR=args.executor)
     procs: dict[str, subprocess.Popen[bytes]] = {}
-    for i, layout in enumerate(layouts):
-        port = tmp / f"port{i}"
+    for i in range(len(layouts)):
         deadline = time.monotonic() + 30.0
-        while not port.exists() and time.monotonic() < deadline:
+        while not (tmp / f"port{i}").exists() and time.monotonic() < deadline:
             time.sleep(0.01)
-        procs[f"skin_driver {i}"] = subprocess.Popen([
-            str(bindir / "skin_driver_node"), "--ros-args", "-r", f"__node:=skin_driver_{i}",
-            "-p", f"port:={port}", "-p", "board_ids:=[0]", "-p", f"layout_files:=['{layout}']",
-        ], env=env)
-    procs["contact_estimation"] = subprocess.Popen(
-        [str(bindir / "contact_estimation_node"), "--ros-args",
-         "-p", f"publish_markers:={'true' if args.markers else 'false'}"], env=env)
+    if args.composed is not None:
+        procs["skin_contact_node (drivers+estimation)"] = subprocess.Popen(
+            [sys.executable, "-m", "phri_bringup.skin_contact_node", "--drivers",
+             *(f"skin_driver_{i}" for i in range(len(layouts))), "--ros-args",
+             "--params-file", str(_composed_params(tmp, layouts, args))], env=env)
+    else:
+        for i, layout in enumerate(layouts):
+            procs[f"skin_driver {i}"] = subprocess.Popen([
+                str(bindir / "skin_driver_node"), "--ros-args", "-r",
+                f"__node:=skin_driver_{i}", "-p", f"port:={tmp / f'port{i}'}",
+                "-p", "board_ids:=[0]", "-p", f"layout_files:=['{layout}']",
+            ], env=env)
+        procs["contact_estimation"] = subprocess.Popen(
+            [str(bindir / "contact_estimation_node"), "--ros-args",
+             "-p", f"publish_markers:={'true' if args.markers else 'false'}"], env=env)
     procs["wholebody_controller"] = subprocess.Popen(
         [sys.executable, __file__, "--controller-probe", str(tmp / "controller"),
          "--ros-args", "-p", f"rate_hz:={args.controller_rate}"], env=env)
@@ -277,11 +304,15 @@ def report(args: argparse.Namespace, sent: dict[int, tuple[np.ndarray, int]], re
            window: tuple[int, int], cpu: dict[str, float], busy_cores: float) -> None:
     """Print the results (see the module docstring)."""
     period_ns = 1e9 / args.rate
+    layout = ("separate processes" if args.composed is None else
+              f"drivers+estimation composed, taxel topics at {args.composed:g} Hz")
     seconds = (window[1] - window[0]) / 1e9
     print(f"\nchain: {args.boards} boards × {args.taxels} taxels at {args.rate:g} Hz → "
           f"skin_driver ×{args.boards} → contact_estimation (markers "
           f"{'on' if args.markers else 'off'}) → wholebody_controller at "
-          f"{args.controller_rate:g} Hz; executor '{args.executor}'; {seconds:.1f} s measured")
+          f"{args.controller_rate:g} Hz; executor '{args.executor}'; "
+          f"{layout}; "
+          f"{seconds:.1f} s measured")
     all_state, all_command = [], []
     for i in range(args.boards):
         counts, to_state, to_command = analyse_link(i, sent[i][0], records, window, period_ns)
@@ -302,7 +333,8 @@ def report(args: argparse.Namespace, sent: dict[int, tuple[np.ndarray, int]], re
     for name, share in cpu.items():
         print(f"    {name:28s} {100 * share:6.1f}")
     chain = sum(v for k, v in cpu.items() if k.split()[0] in
-                ("skin_driver", "contact_estimation", "wholebody_controller"))
+                ("skin_driver", "contact_estimation", "wholebody_controller",
+                 "skin_contact_node"))
     print(f"    {'chain (drivers+estimation+controller)':28s} {100 * chain:6.1f}")
     print(f"  machine: {busy_cores:.2f} of {os.cpu_count()} cores busy over the window "
           f"(all processes, other jobs included); {load_line()}")
@@ -367,6 +399,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                    help="joint state and odometry rate of this process [Hz]")
     p.add_argument("--executor", choices=("single", "events"), default="single",
                    help="PHRI_EXECUTOR of the node processes (phri_common.ros_main)")
+    p.add_argument("--composed", type=float, default=None, metavar="HZ",
+                   help="drivers and estimation in one process (phri_bringup.skin_contact_node),"
+                        " taxel topics published at HZ")
     p.add_argument("--no-markers", dest="markers", action="store_false",
                    help="contact_estimation publish_markers:=false")
     args = p.parse_args(argv)

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 import sys
+import threading
 import time
 from collections.abc import Sequence
 from functools import partial
@@ -43,6 +44,7 @@ from contact_estimation.estimator import (
 from contact_estimation.markers import MarkerScales, MarkerThrottle, contact_markers
 from phri_common.contact import contact_to_msg
 from phri_common.params import ParamSpec, ParamValue
+from phri_common.records import TaxelArray
 from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
 from phri_common.taxels import TaxelMessageError, msg_to_taxels
@@ -58,6 +60,9 @@ PARAMS: list[ParamSpec] = [
               "skin/P/taxels", read_only=True, min_length=1),
     ParamSpec("patch_links", DEFAULT_PATCH_LINKS, "link frame of each patch, same order as "
               "patches; several patches may share a link", read_only=True, min_length=1),
+    ParamSpec("subscribe_taxels", True, "subscribe to skin/<patch>/taxels; false when the skin "
+              "drivers run in this process and hand frames over directly (skin_contact_node)",
+              read_only=True),
     ParamSpec("force_threshold", 0.05, "σ_t: a taxel is in contact when its force is strictly "
               "greater", unit="N", low=0.0, high=1000.0),
     ParamSpec("torque_limit", list(PAPER_TORQUE_LIMIT), "per-axis bound on |τ| about the "
@@ -126,6 +131,9 @@ class ContactEstimationNode(Node):
         patches = list(self._values["patches"])
         links = list(self._values["patch_links"])
         self._patch_links = patch_link_map(patches, links)
+        # Taken by every frame and by reconfiguration: a composed skin driver calls on_frame
+        # from its serial thread while the executor runs parameter changes.
+        self._lock = threading.Lock()
         self._estimator = ContactEstimator(self._patch_links, config_from_values(self._values))
         self._scales = self._marker_scales(self._values)
         self._marker_throttle = MarkerThrottle(float(self._values["marker_rate_hz"]))
@@ -143,6 +151,7 @@ class ContactEstimationNode(Node):
                 PointCloud2, f"skin/{patch}/taxels", partial(self._on_taxels, patch), SENSOR_QOS
             )
             for patch in patches
+            if self._values["subscribe_taxels"]
         ]
         period = float(self._values["diagnostics_period"])
         self._diag_timer = self.create_timer(period, self._publish_diagnostics)
@@ -160,7 +169,8 @@ class ContactEstimationNode(Node):
 
     def _on_change(self, values: dict[str, ParamValue]) -> None:
         config = config_from_values(values)  # raises ValueError → change refused
-        self._estimator.reconfigure(config)
+        with self._lock:
+            self._estimator.reconfigure(config)
         self._scales = self._marker_scales(values)
         self._marker_throttle.rate_hz = float(values["marker_rate_hz"])
         period = float(values["diagnostics_period"])
@@ -169,29 +179,50 @@ class ContactEstimationNode(Node):
         self._values = values
 
     def _on_taxels(self, patch: str, msg: PointCloud2) -> None:
-        self._received[patch] += 1
-        link = self._patch_links[patch]
         try:
             taxels = msg_to_taxels(msg)
-            if taxels.frame_id != link:
-                raise InvalidTaxelData(
-                    f"frame_id {taxels.frame_id!r}, expected the patch's link {link!r}"
-                )
-            interval = int(self._values["geometry_check_interval"])
-            check = self._received[patch] % interval == 1 or interval == 1
-            state = self._estimator.update(patch, taxels, check_geometry=check)
-        except (TaxelMessageError, InvalidTaxelData) as err:
-            self._refused[patch] += 1
-            self._last_error[patch] = str(err)
-            self.get_logger().warning(
-                f"refused a frame of patch {patch!r}: {err}", throttle_duration_sec=1.0
-            )
+        except TaxelMessageError as err:
+            with self._lock:
+                self._received[patch] += 1
+                self._refuse(patch, err)
             return
-        self._state_pubs[link].publish(contact_to_msg(state))
-        if self._values["publish_markers"] and self._marker_throttle.due(
-            link, state.in_contact, time.monotonic()
-        ):
-            self._marker_pub.publish(MarkerArray(markers=contact_markers(state, self._scales)))
+        self.on_frame(patch, taxels)
+
+    def on_frame(self, patch: str, taxels: TaxelArray) -> None:
+        """Estimate and publish from one frame of ``patch`` (thread-safe).
+
+        Called for every message on ``skin/<patch>/taxels``, and directly by a skin driver
+        composed into the same process (``phri_bringup.skin_contact_node``), which skips the
+        message round trip; refusals and diagnostics are the same either way.
+        """
+        with self._lock:
+            self._received[patch] += 1
+            link = self._patch_links[patch]
+            try:
+                if taxels.frame_id != link:
+                    raise InvalidTaxelData(
+                        f"frame_id {taxels.frame_id!r}, expected the patch's link {link!r}"
+                    )
+                interval = int(self._values["geometry_check_interval"])
+                check = self._received[patch] % interval == 1 or interval == 1
+                state = self._estimator.update(patch, taxels, check_geometry=check)
+            except InvalidTaxelData as err:
+                self._refuse(patch, err)
+                return
+            self._state_pubs[link].publish(contact_to_msg(state))
+            if self._values["publish_markers"] and self._marker_throttle.due(
+                link, state.in_contact, time.monotonic()
+            ):
+                self._marker_pub.publish(
+                    MarkerArray(markers=contact_markers(state, self._scales))
+                )
+
+    def _refuse(self, patch: str, err: Exception) -> None:
+        self._refused[patch] += 1
+        self._last_error[patch] = str(err)
+        self.get_logger().warning(
+            f"refused a frame of patch {patch!r}: {err}", throttle_duration_sec=1.0
+        )
 
     def _publish_diagnostics(self) -> None:
         statuses = []
@@ -218,6 +249,11 @@ class ContactEstimationNode(Node):
         msg = DiagnosticArray(status=statuses)
         msg.header.stamp = self.get_clock().now().to_msg()
         self._diag_pub.publish(msg)
+
+    @property
+    def patches(self) -> tuple[str, ...]:
+        """The skin patches this node estimates from (parameter ``patches``)."""
+        return tuple(self._patch_links)
 
     @property
     def refused_frames(self) -> dict[str, int]:

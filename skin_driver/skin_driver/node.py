@@ -20,7 +20,7 @@ from __future__ import annotations
 import sys
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 from diagnostic_msgs.msg import DiagnosticArray
@@ -34,6 +34,7 @@ from std_srvs.srv import Trigger
 
 from phri_common import paper
 from phri_common.params import ParameterValueError, ParamSpec, ParamValue
+from phri_common.records import TaxelArray
 from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
@@ -44,6 +45,9 @@ from skin_driver.diagnostics import BoardSnapshot, PortSnapshot, board_status, p
 from skin_driver.layout import LayoutError, SkinLayout, load_layout
 from skin_driver.protocol import MAX_TAXELS, BoardSequence, Frame, FrameParser
 from skin_driver.transport import SerialReader
+
+FrameListener = Callable[[str, TaxelArray], None]
+"""Receives (patch name, calibrated taxel array) for every frame (see add_frame_listener)."""
 
 PARAMS: list[ParamSpec] = [
     ParamSpec("port", "/dev/ttyACM0", "pyserial URL or device path of the skin port "
@@ -91,6 +95,10 @@ PARAMS: list[ParamSpec] = [
               "doubles per failure", unit="s", low=0.01, high=10.0, read_only=True),
     ParamSpec("reconnect_backoff_max", 2.0, "longest wait between reopen attempts", unit="s",
               low=0.01, high=60.0, read_only=True),
+    ParamSpec("taxel_publish_rate_hz", 0.0, "largest rate at which each patch's taxel array is "
+              "published; 0 = every frame. Lower it only when the frames also reach the "
+              "estimator directly (skin_contact_node)", unit="Hz", low=0.0, high=10_000.0,
+              read_only=True),
     ParamSpec("qos_depth", 5, "keep-last depth of the taxel publishers (reliable)",
               unit="messages", low=1, high=1000, read_only=True),
 ]
@@ -162,6 +170,7 @@ class _Channel:
     sequence: BoardSequence = field(default_factory=BoardSequence)
     """Sequence gaps of the frames accepted for this board (dropped = gaps only)."""
     clock: BoardClock = field(default_factory=BoardClock)
+    next_publish_mono: float = 0.0
 
 
 class SkinDriverNode(Node):
@@ -208,6 +217,9 @@ class SkinDriverNode(Node):
                     PointCloud2, f"skin/{layout.patch}/taxels", qos
                 ),
             )
+        rate = float(v["taxel_publish_rate_hz"])
+        self._publish_period = 1.0 / rate if rate > 0.0 else 0.0
+        self._listeners: list[FrameListener] = []
         self._url = str(v["port"])
         self._parser = FrameParser(int(v["max_taxels"]))
         self._unknown_board_frames = 0
@@ -226,6 +238,18 @@ class SkinDriverNode(Node):
         self._reader.start()
         patches = ", ".join(f"{b}→{c.layout.patch}" for b, c in self._channels.items())
         self.get_logger().info(f"reading {self._url}; boards {patches}")
+
+    @property
+    def patches(self) -> tuple[str, ...]:
+        """The patch names of this port's boards (from their layouts)."""
+        return tuple(c.layout.patch for c in self._channels.values())
+
+    def add_frame_listener(self, listener: FrameListener) -> None:
+        """Call ``listener(patch, taxels)`` with every calibrated frame, on the serial thread,
+        before (and whatever the rate of) its publication: a contact estimator composed into
+        this process takes frames this way (``phri_bringup.skin_contact_node``)."""
+        with self._lock:
+            self._listeners.append(listener)
 
     def _make_reader(self, v: dict[str, ParamValue]) -> SerialReader:
         return SerialReader(
@@ -289,8 +313,17 @@ class SkinDriverNode(Node):
         forces = channel.calibrator.process(frame.counts, mono)
         if forces is None:
             return
-        channel.publisher.publish(channel.encoder.encode(forces, stamp_ns))
-        channel.published += 1
+        if self._listeners:
+            layout = channel.layout
+            taxels = TaxelArray(layout.positions, layout.normals, forces, layout.weights,
+                                layout.link, stamp_ns)
+            for listener in self._listeners:
+                listener(layout.patch, taxels)
+        if mono >= channel.next_publish_mono:
+            channel.publisher.publish(channel.encoder.encode(forces, stamp_ns))
+            channel.published += 1
+            if self._publish_period > 0.0:
+                channel.next_publish_mono = mono + self._publish_period - 1e-6
 
     # ----------------------------------------------------------------------- executor side
 
