@@ -154,7 +154,8 @@ def _composed_params(tmp: Path, layouts: list[Path], args: argparse.Namespace) -
             "taxel_publish_rate_hz": float(args.composed)}}
         for i, layout in enumerate(layouts)
     }
-    sections["contact_estimation"] = {"ros__parameters": {"publish_markers": args.markers}}
+    sections["contact_estimation"] = {"ros__parameters": {
+        "publish_markers": args.markers, "marker_rate_hz": args.marker_rate}}
     path = tmp / "composed.yaml"
     path.write_text(yaml.safe_dump(sections))
     return path
@@ -183,7 +184,8 @@ def _start_nodes(tmp: Path, layouts: list[Path], args: argparse.Namespace,
             ], env=env)
         procs["contact_estimation"] = subprocess.Popen(
             [str(bindir / "contact_estimation_node"), "--ros-args",
-             "-p", f"publish_markers:={'true' if args.markers else 'false'}"], env=env)
+             "-p", f"publish_markers:={'true' if args.markers else 'false'}",
+             "-p", f"marker_rate_hz:={args.marker_rate}"], env=env)
     procs["wholebody_controller"] = subprocess.Popen(
         [sys.executable, __file__, "--controller-probe", str(tmp / "controller"),
          "--ros-args", "-p", f"rate_hz:={args.controller_rate}"], env=env)
@@ -304,12 +306,14 @@ def report(args: argparse.Namespace, sent: dict[int, tuple[np.ndarray, int]], re
            window: tuple[int, int], cpu: dict[str, float], busy_cores: float) -> None:
     """Print the results (see the module docstring)."""
     period_ns = 1e9 / args.rate
+    markers = "off" if not args.markers else (
+        f"≤ {args.marker_rate:g} Hz" if args.marker_rate > 0 else "with every state")
     layout = ("separate processes" if args.composed is None else
               f"drivers+estimation composed, taxel topics at {args.composed:g} Hz")
     seconds = (window[1] - window[0]) / 1e9
     print(f"\nchain: {args.boards} boards × {args.taxels} taxels at {args.rate:g} Hz → "
           f"skin_driver ×{args.boards} → contact_estimation (markers "
-          f"{'on' if args.markers else 'off'}) → wholebody_controller at "
+          f"{markers}) → wholebody_controller at "
           f"{args.controller_rate:g} Hz; executor '{args.executor}'; "
           f"{layout}; "
           f"{seconds:.1f} s measured")
@@ -402,6 +406,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--composed", type=float, default=None, metavar="HZ",
                    help="drivers and estimation in one process (phri_bringup.skin_contact_node),"
                         " taxel topics published at HZ")
+    p.add_argument("--marker-rate", type=float, default=30.0,
+                   help="contact_estimation marker_rate_hz (0 = every state, as before 15)")
     p.add_argument("--no-markers", dest="markers", action="store_false",
                    help="contact_estimation publish_markers:=false")
     args = p.parse_args(argv)
