@@ -318,8 +318,10 @@ def report(args: argparse.Namespace, sent: dict[int, tuple[np.ndarray, int]], re
           f"{layout}; "
           f"{seconds:.1f} s measured")
     all_state, all_command = [], []
+    n_sent = n_arrived = 0
     for i in range(args.boards):
         counts, to_state, to_command = analyse_link(i, sent[i][0], records, window, period_ns)
+        n_sent, n_arrived = n_sent + counts["sent"], n_arrived + counts["arrived"]
         all_state.append(to_state)
         all_command.append(to_command)
         dropped = counts["sent"] - counts["arrived"]
@@ -336,12 +338,23 @@ def report(args: argparse.Namespace, sent: dict[int, tuple[np.ndarray, int]], re
     print("  CPU, % of one core:")
     for name, share in cpu.items():
         print(f"    {name:28s} {100 * share:6.1f}")
-    chain = sum(v for k, v in cpu.items() if k.split()[0] in
-                ("skin_driver", "contact_estimation", "wholebody_controller",
-                 "skin_contact_node"))
+    skin = sum(v for k, v in cpu.items()
+               if k.split()[0] in ("skin_driver", "contact_estimation", "skin_contact_node"))
+    chain = skin + cpu["wholebody_controller"]
     print(f"    {'chain (drivers+estimation+controller)':28s} {100 * chain:6.1f}")
+    print(f"  CPU per frame delivered to the controller (drivers+estimation): "
+          f"{1e6 * skin * seconds / max(n_arrived, 1):.0f} µs; controller CPU per command: "
+          f"{1e6 * cpu['wholebody_controller'] * seconds / max(n_cmd, 1):.0f} µs")
     print(f"  machine: {busy_cores:.2f} of {os.cpu_count()} cores busy over the window "
           f"(all processes, other jobs included); {load_line()}")
+    print("  row: | sent | dropped | frame end → command median / p99 | drivers+estimation | "
+          "controller | per frame | busy cores | load (1 min) |")
+    print(f"  row: | {n_sent} | {100 * (n_sent - n_arrived) / max(n_sent, 1):.1f} % | "
+          f"{np.median(command_ns) / 1e6 if command_ns.size else float('nan'):.1f} / "
+          f"{np.percentile(command_ns, 99) / 1e6 if command_ns.size else float('nan'):.1f} ms | "
+          f"{100 * skin:.0f} % | {100 * cpu['wholebody_controller']:.0f} % | "
+          f"{1e6 * skin * seconds / max(n_arrived, 1):.0f} µs | {busy_cores:.2f} | "
+          f"{os.getloadavg()[0]:.1f} |")
 
 
 def measure(args: argparse.Namespace, tmp: Path) -> None:
