@@ -104,6 +104,11 @@ PARAMS: list[ParamSpec] = [
 ]
 
 
+def _period_s(rate_hz: float) -> float:
+    """Publication period [s] of a rate limit [Hz]; 0 (no limit) for a rate of 0."""
+    return 1.0 / rate_hz if rate_hz > 0.0 else 0.0
+
+
 def calibration_config(values: dict[str, ParamValue]) -> CalibrationConfig:
     """Parameter values → calibration settings (pure)."""
     return CalibrationConfig(
@@ -176,6 +181,9 @@ class _Channel:
 class SkinDriverNode(Node):
     """Skin driver for one serial port (see module docstring)."""
 
+    _listeners: list[FrameListener]
+    """Called with every calibrated frame (add_frame_listener)."""
+
     def __init__(
         self,
         *,
@@ -217,9 +225,7 @@ class SkinDriverNode(Node):
                     PointCloud2, f"skin/{layout.patch}/taxels", qos
                 ),
             )
-        rate = float(v["taxel_publish_rate_hz"])
-        self._publish_period = 1.0 / rate if rate > 0.0 else 0.0
-        self._listeners: list[FrameListener] = []
+        self._listeners, self._publish_period = [], _period_s(float(v["taxel_publish_rate_hz"]))
         self._url = str(v["port"])
         self._parser = FrameParser(int(v["max_taxels"]))
         self._unknown_board_frames = 0
