@@ -314,20 +314,19 @@ class ContactTask:
         self._had_contact = bool(contact.in_contact)
         return rate
 
-    def _wrench(self, contact: ContactState, rot: Mat9, base_yaw: float,
+    def _wrench(self, contact: ContactState, force: Vec3 | None, rot: Mat9, base_yaw: float,
                 desired_scale: float) -> tuple[list[float], Vec3]:
         """(10)–(12) plus ``desired_scale`` times the manual desired force (base frame → world,
         gated and faded by :mod:`contact_safety`); also ᶦμ [m]."""
         mu: Vec3 = _ZERO3
         wrench = [0.0] * 6
-        if contact.in_contact:
+        if force is not None:
             if self._desired is not None:
                 lo, hi = contact.region_min.tolist(), contact.region_max.tolist()
                 mu = track_force(lo, hi, *self._desired)
                 if mu == _ZERO3:
                     mu = _ZERO3  # the shared zero: no rotation needed downstream
-            wrench = contact_wrench(contact.force.tolist(), contact.torque.tolist(),
-                                    mu, self.k_eta, rot)
+            wrench = contact_wrench(force, contact.torque.tolist(), mu, self.k_eta, rot)
         fx, fy, fz = self.desired_force
         if desired_scale > 0.0 and (fx != 0.0 or fy != 0.0 or fz != 0.0):
             fx, fy, fz = desired_scale * fx, desired_scale * fy, desired_scale * fz
@@ -352,24 +351,28 @@ class ContactTask:
         return (lx + (dx - sx), ly + (dy - sy), lz + (dz - sz), *angular,
                 lx + dx, ly + dy, lz + dz, *angular)
 
-    def _safety(self, contact: ContactState, pos: Vec3) -> tuple[float, float, Vec3 | None]:
-        """This cycle's contact safety (:mod:`contact_safety`): ``(approach scale s, desired-force
-        scale, n̂ in the link frame or None)``; updates the force guard and the regain budget."""
+    def _safety(self, force: Vec3 | None, in_contact: bool,
+                pos: Vec3) -> tuple[float, float, Vec3 | None]:
+        """This cycle's contact safety (:mod:`contact_safety`) from the contact force on the link
+        ``force`` [N] (link frame, ``None`` untouched): ``(approach scale s, desired-force scale,
+        n̂ in the link frame or None)``; updates the force guard and the regain budget."""
         normal = None
-        force = 0.0
-        if contact.in_contact:
-            fx, fy, fz = contact.force.tolist()
-            force = math.sqrt(fx * fx + fy * fy + fz * fz)
-            if force > 0.0:
-                normal = (fx / force, fy / force, fz / force)
+        magnitude = 0.0
+        if force is not None:
+            fx, fy, fz = force
+            magnitude = math.sqrt(fx * fx + fy * fy + fz * fz)
+            if magnitude > 0.0:
+                normal = (fx / magnitude, fy / magnitude, fz / magnitude)
         was_yielding = self.guard.yielding
-        scale = self.guard.update(force)
+        scale = self.guard.update(magnitude)
         if was_yielding and not self.guard.yielding:
             self.admittance.reset()  # the yield is over: a fresh start, no stored push
             self.life_cycle.reset()
-        last, self._last_pos = self._last_pos, pos
-        travel = 0.0 if last is None else math.dist(pos, last)
-        gate = self.regain.update(bool(contact.in_contact), travel, self.dt)
+        gate = True
+        if self.desired_force != _ZERO3:  # only a manual desired force is gated
+            last, self._last_pos = self._last_pos, pos
+            travel = 0.0 if last is None else math.dist(pos, last)
+            gate = self.regain.update(in_contact, travel, self.dt)
         return scale, scale if gate else 0.0, normal
 
     def _safety_state(self, scale: float) -> Safety:
@@ -386,7 +389,7 @@ class ContactTask:
         """Target and control velocities after the graded response: while yielding, the contact
         centre moves along n̂ at the yield speed; while fading, motion towards the contact is
         scaled by s (:func:`limit_approach`)."""
-        if normal is None or scale >= 1.0:
+        if normal is None:
             return velocities
         n = rotate(rot, normal)
         if self.guard.yielding:
@@ -407,9 +410,11 @@ class ContactTask:
             pos: ⁰p_γi, the link frame's origin in the world [m].
             base_yaw: base heading [rad] (turns the base-frame desired force into the world).
         """
-        scale, desired_scale, normal = self._safety(contact, pos)
+        in_contact = bool(contact.in_contact)
+        force: Vec3 | None = contact.force.tolist() if in_contact else None
+        scale, desired_scale, normal = self._safety(force, in_contact, pos)
         rate = self._track_contact(contact)
-        wrench, mu = self._wrench(contact, rot, base_yaw, desired_scale)
+        wrench, mu = self._wrench(contact, force, rot, base_yaw, desired_scale)
         adm = self.admittance
         adm.step_f(wrench)  # (13)
         lock = self.config.priority_lock
@@ -428,18 +433,21 @@ class ContactTask:
         else:
             adm.zero_deflection()  # lines 7/10: x_d = x_r = x_γ, so x̃ = 0 by (14)
             phase, velocities = _INACTIVE, _ZERO12
-        velocities = self._guarded(velocities, rot, normal, scale)
+        if scale < 1.0:
+            velocities = self._guarded(velocities, rot, normal, scale)
         x, v = adm.state_f
         k = self.k_eta
         mx, my, mz = _ZERO3 if mu is _ZERO3 else rotate(rot, mu)
         values = (*velocities, *wrench, *x, *v, *self._point, k * mx, k * my, k * mz)
         thr = self.psi_thr
         psi = 1.0 if self.guard.yielding else (psi_raw if psi_raw > thr else thr)
-        return TaskOutput(self.config.link, phase, psi, psi_raw, bool(contact.in_contact),
-                          values, self._safety_state(scale))
+        safety = _SAFE if scale == 1.0 and not self.regain.exhausted else \
+            self._safety_state(scale)
+        return TaskOutput(self.config.link, phase, psi, psi_raw, in_contact, values, safety)
 
 
 _INACTIVE, _ACTIVATING, _ACTIVE, _DEACTIVATING = (
     Phase.INACTIVE, Phase.ACTIVATING, Phase.ACTIVE, Phase.DEACTIVATING
 )
 _ZERO12: tuple[float, ...] = (0.0,) * 12
+_SAFE = Safety.OK
