@@ -32,6 +32,7 @@ from numpy.typing import NDArray
 
 from phri_bringup.graph import ARMS, CONTROLLER, SKIN_LINKS
 from phri_bringup.recording import find_recording, ros_type
+from phri_description.description import BASE_JOINTS
 
 FloatArray = NDArray[np.float64]
 
@@ -114,10 +115,11 @@ def read_run(path: str | Path) -> RunData:
             elif topic == "/sim/person/poses":
                 if msg.poses:
                     rows["torso"].append((t, [msg.poses[0].position.x, msg.poses[0].position.y]))
-            elif topic == "/joint_states":
-                data.joint_names = list(msg.name)
-                rows["qd"].append((t, list(msg.velocity)))
-                rows["q"].append((t, list(msg.position)))
+            elif topic == "/joint_states":  # the arm joints (the base is in /odom)
+                arm = [i for i, name in enumerate(msg.name) if name not in BASE_JOINTS]
+                data.joint_names = [msg.name[i] for i in arm]
+                rows["qd"].append((t, [msg.velocity[i] for i in arm]))
+                rows["q"].append((t, [msg.position[i] for i in arm]))
             elif topic == "/cmd_vel":
                 rows["cmd_vel"].append((t, [msg.linear.x, msg.linear.y, msg.angular.z]))
             elif topic == "/odom":

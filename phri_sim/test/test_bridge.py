@@ -76,3 +76,49 @@ def test_ground_truth_and_skin_reach_a_subscriber(ros_context: Any) -> None:
         executor.shutdown()
         probe.destroy_node()
         node.destroy_node()
+
+
+@pytest.mark.ros
+@pytest.mark.slow
+def test_sigint_while_publishing_exits_cleanly(ros_context: Any) -> None:
+    """``ros2 launch`` stops the free-running bridge with SIGINT while its timer is publishing;
+    it must exit 0 without ``RCLError: Failed to publish``. Before the fix rclpy's own handler
+    shut the context down under a running tick: a race under launch (2 of 12 launches), and
+    almost every time when SIGINT was inherited as ignored (a background job of a shell script,
+    the last two runs here). At 20× real time a tick is nearly always running when the signal
+    comes, so the old entry point fails this test."""
+    import random
+    import signal
+    import subprocess
+    import sys
+
+    from rosgraph_msgs.msg import Clock
+
+    rng = random.Random(3)
+    peer = Node("sigint_probe", context=ros_context)
+    executor = SingleThreadedExecutor(context=ros_context)
+    executor.add_node(peer)
+    ticks: list[Clock] = []
+    peer.create_subscription(Clock, "/clock", ticks.append, 10)
+    try:
+        for inherited in (signal.SIG_DFL, signal.SIG_IGN, signal.SIG_IGN):
+            ticks.clear()
+            proc = subprocess.Popen(
+                [sys.executable, "-c", "from phri_sim.bridge import main; main()",
+                 "--ros-args", "-p", "scenario:=waltz", "-p", "real_time_factor:=20.0"],
+                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                preexec_fn=lambda sig=inherited: signal.signal(signal.SIGINT, sig))
+            try:
+                assert spin_until(executor, lambda: len(ticks) > 50, timeout_s=60.0)
+                spin_until(executor, lambda: False, timeout_s=rng.uniform(0.0, 0.3))
+                proc.send_signal(signal.SIGINT)
+                out, _ = proc.communicate(timeout=30)
+            finally:
+                if proc.poll() is None:
+                    proc.kill()
+                    proc.wait()
+            assert proc.returncode == 0, out
+            assert "Failed to publish" not in out and "Traceback" not in out, out
+    finally:
+        executor.shutdown()
+        peer.destroy_node()
