@@ -293,6 +293,11 @@ TF_TOPIC = TopicSpec("/tf", "tf2_msgs/msg/TFMessage")
 shows the robot in Foxglove / Lichtblick without a robot state publisher."""
 
 
+ROBOT_DESCRIPTION_TOPIC = TopicSpec("/robot_description", "std_msgs/msg/String", recorded=False)
+"""The URDF, latched (transient local). robot_state_publisher publishes it on a ROS install; in
+``phri sim`` (no robot_state_publisher) the observer node does, so rviz and Foxglove find it."""
+
+
 def robot_description_urdf() -> str:
     """The robot's URDF (phri_description's one description), for robot_state_publisher/rviz."""
     from phri_description.urdf_writer import urdf_string

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
+import numpy as np
 import pytest
 from geometry_msgs.msg import WrenchStamped
 from rclpy.executors import SingleThreadedExecutor
@@ -122,3 +124,46 @@ def test_sigint_while_publishing_exits_cleanly(ros_context: Any) -> None:
     finally:
         executor.shutdown()
         peer.destroy_node()
+
+
+@pytest.mark.ros
+def test_joint_states_cover_every_moving_urdf_joint(ros_context: Any) -> None:
+    """robot_state_publisher connects odom → base_link only if /joint_states carries the base
+    joints: every non-fixed joint of the URDF has a state, the base ones equal /odom's pose."""
+    import xml.etree.ElementTree as ET
+
+    from nav_msgs.msg import Odometry
+    from rclpy.qos import qos_profile_sensor_data
+    from sensor_msgs.msg import JointState
+
+    from phri_description.urdf_writer import URDF_PATH
+
+    moving = {j.get("name") for j in ET.parse(URDF_PATH).getroot().iter("joint")
+              if j.get("type") != "fixed"}
+    node = _bridge(ros_context)
+    peer = Node("joint_probe", context=ros_context)
+    executor = SingleThreadedExecutor(context=ros_context)
+    executor.add_node(peer)
+    states: list[JointState] = []
+    odoms: list[Odometry] = []
+    peer.create_subscription(JointState, "/joint_states", states.append, qos_profile_sensor_data)
+    peer.create_subscription(Odometry, "/odom", odoms.append, qos_profile_sensor_data)
+    try:
+        node.sim.command("base", np.array([0.1, 0.05, 0.2]))
+
+        def advanced() -> bool:
+            node.advance(1, clock=False)
+            return len(states) >= 20 and len(odoms) >= 20
+
+        assert spin_until(executor, advanced, timeout_s=20.0)
+        last, odom = states[-1], odoms[-1]
+        assert moving <= set(last.name)
+        pose = dict(zip(last.name, last.position, strict=True))
+        p, q = odom.pose.pose.position, odom.pose.pose.orientation
+        assert pose["base_x"] == pytest.approx(p.x, abs=1e-9) and abs(p.x) > 1e-3
+        assert pose["base_y"] == pytest.approx(p.y, abs=1e-9) and abs(p.y) > 1e-4
+        assert 2.0 * math.atan2(q.z, q.w) == pytest.approx(pose["base_yaw"], abs=1e-9)
+    finally:
+        executor.shutdown()
+        peer.destroy_node()
+        node.destroy_node()
