@@ -126,3 +126,20 @@ def test_bad_start_up_parameter_is_refused_with_name_and_range(ros_context) -> N
             parameter_overrides=[Parameter("patches", value=["a", "b"]),
                                  Parameter("patch_links", value=["l"])],
         )
+
+
+def test_markers_are_throttled_to_marker_rate_hz(harness) -> None:
+    """100 frames at 500 Hz (0.2 s of stamps) give 100 contact states but, at 30 Hz, only the
+    markers of the first frame and one per 1/30 s after it; a released contact is drawn
+    (deleted) at once."""
+    _, pubs, received, markers, executor = harness
+    encoder = TaxelCloudEncoder(POSITIONS, NORMALS, "forearm_link")
+    for i in range(100):
+        pubs["fore"].publish(encoder.encode(FORCES, 1_000_000_000 + i * 2_000_000))
+        assert spin_until(executor, lambda n=i + 1: len(received["forearm_link"]) >= n, 5.0)
+    spin_until(executor, lambda: False, timeout_s=0.3)
+    drawn = len(markers)
+    assert 6 <= drawn <= 8  # 0.198 s / (1/30 s) = 5.94 periods → 6 (+ the first)
+    pubs["fore"].publish(encoder.encode(np.zeros(3), 1_000_000_000 + 100 * 2_000_000))
+    assert spin_until(executor, lambda: len(markers) == drawn + 1, timeout_s=5.0)
+    assert all(m.action == m.DELETE for m in markers[-1].markers)
