@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Run the whole check suite: ruff, mypy, then the ROS 2 way: `colcon build` of every package and
 # `colcon test`, which runs each package's pytest suite in its own directory (the one pytest run
-# of the suite), and a summary that fails any package that ran 0 tests. Expects ./setup.sh.
+# of the suite), a summary that fails any package that ran 0 tests, and `colcon lint` where a
+# ROS install provides what it needs. Expects ./setup.sh.
 #
 #   ./test.sh                 # everything (what CI runs)
 #   ./test.sh PYTEST_ARGS...  # ruff, mypy, then pytest from the repository root with these args
@@ -25,4 +26,12 @@ colcon test --event-handlers console_cohesion+ summary+ --return-code-on-test-fa
     || colcon_rc=$?
 echo "== test results"
 python -m phri_common.junit_summary build "${PACKAGES[@]}"
+# colcon lint needs launch, launch_ros and a rosdep database, which only a ROS install has (no
+# wheels exist); test_packaging.py (run above) makes the same import/package.xml check anyway.
+if python -c "import colcon_lint.verb.lint_depends" >/dev/null 2>&1 \
+        && rosdep resolve rclpy >/dev/null 2>&1; then
+    echo "== colcon lint"; colcon lint
+else
+    echo "== colcon lint: skipped (needs launch, launch_ros and rosdep's database: a ROS install)"
+fi
 exit "$colcon_rc"

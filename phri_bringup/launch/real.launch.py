@@ -28,7 +28,7 @@ from phri_bringup.graph import (
     real_graph,
     robot_description_urdf,
 )
-from phri_bringup.preflight import ament_executable_exists, launch_problems, refuse
+from phri_bringup.preflight import ament_executable_exists, launch_problems, preflight_action
 
 
 def _nodes(context):
@@ -39,9 +39,10 @@ def _nodes(context):
              "skin_driver_right": arg("skin_right_port")}
     graph = real_graph(ports, arg("layout_dir"), arg("rviz").lower() in ("true", "1", "yes"),
                        arg("hardware_config"), arg("base_cmd_topic"))
-    refuse("real.launch.py", launch_problems(graph, ament_executable_exists, real=True))
     urdf = robot_description_urdf()
-    return [Node(**launch_node_kwargs(spec, urdf)) for spec in graph]
+    check = preflight_action("real.launch.py",
+                             lambda: launch_problems(graph, ament_executable_exists, real=True))
+    return [check, *(Node(**launch_node_kwargs(spec, urdf)) for spec in graph)]
 
 
 def generate_launch_description():

@@ -15,7 +15,7 @@ from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
 from phri_bringup.graph import launch_node_kwargs, robot_description_urdf, sim_graph
-from phri_bringup.preflight import ament_executable_exists, launch_problems, refuse
+from phri_bringup.preflight import ament_executable_exists, launch_problems, preflight_action
 
 
 def _nodes(context):
@@ -23,9 +23,10 @@ def _nodes(context):
     seed = int(LaunchConfiguration("seed").perform(context))
     rviz = LaunchConfiguration("rviz").perform(context).lower() in ("true", "1", "yes")
     graph = sim_graph(scenario, seed, rviz)
-    refuse("sim.launch.py", launch_problems(graph, ament_executable_exists))
     urdf = robot_description_urdf()
-    return [Node(**launch_node_kwargs(spec, urdf)) for spec in graph]
+    check = preflight_action("sim.launch.py",
+                             lambda: launch_problems(graph, ament_executable_exists))
+    return [check, *(Node(**launch_node_kwargs(spec, urdf)) for spec in graph)]
 
 
 def generate_launch_description():

@@ -11,6 +11,7 @@ from __future__ import annotations
 import re
 from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import Any
 
 from phri_bringup.graph import NodeSpec, config_file
 
@@ -107,3 +108,20 @@ def refuse(launch_file: str, problems: list[str]) -> None:
     """
     if problems:
         raise RuntimeError(f"{launch_file}: nothing was started:\n  " + "\n  ".join(problems))
+
+
+def preflight_action(launch_file: str, problems: Callable[[], list[str]]) -> Any:
+    """A launch action that calls :func:`refuse` with ``problems()`` when it is executed.
+
+    The launch files return it first, before their ``Node`` actions: launch executes the
+    entities of a list in order, so a refusal stops the launch before any process starts. It is
+    an action of its own rather than a check inside the ``OpaqueFunction`` so that tools that
+    evaluate launch files without launching (colcon lint) still see every ``Node``."""
+    from launch.action import Action
+
+    class Preflight(Action):
+        def execute(self, context: Any) -> None:
+            del context
+            refuse(launch_file, problems())
+
+    return Preflight()

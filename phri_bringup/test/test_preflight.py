@@ -72,11 +72,19 @@ def test_ament_lookup_of_an_absent_package_is_false() -> None:
 
 @pytest.mark.parametrize("name", ["sim.launch.py", "real.launch.py"])
 def test_launch_files_refuse_before_creating_any_node(name: str) -> None:
-    """In ``_nodes`` the preflight ``refuse(...)`` comes before the first ``Node(...)``."""
+    """``_nodes`` returns the preflight action first, then the ``Node`` actions: launch executes
+    a list in order, so a refusal comes before any process (and colcon lint, which evaluates
+    ``_nodes`` without launching, still sees every node)."""
     tree = ast.parse((LAUNCH / name).read_text(encoding="utf-8"))
     func = next(f for f in tree.body if isinstance(f, ast.FunctionDef) and f.name == "_nodes")
-    calls = [(c.lineno, getattr(c.func, "id", "")) for c in ast.walk(func)
-             if isinstance(c, ast.Call)]
-    refuse = [line for line, fn in calls if fn == "refuse"]
-    nodes = [line for line, fn in calls if fn == "Node"]
-    assert refuse and nodes and max(refuse) < min(nodes)
+    ret = next(n for n in ast.walk(func) if isinstance(n, ast.Return))
+    assert isinstance(ret.value, ast.List) and len(ret.value.elts) == 2
+    first, rest = ret.value.elts
+    assert isinstance(first, ast.Name)
+    assigned = next(n for n in ast.walk(func) if isinstance(n, ast.Assign)
+                    and getattr(n.targets[0], "id", "") == first.id)
+    assert getattr(assigned.value, "func", None) is not None
+    assert assigned.value.func.id == "preflight_action"  # type: ignore[attr-defined]
+    assert isinstance(rest, ast.Starred)
+    assert any(getattr(c.func, "id", "") == "Node" for c in ast.walk(rest)
+               if isinstance(c, ast.Call))
