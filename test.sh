@@ -24,14 +24,18 @@ rm -f build/*/pytest.xml
 colcon_rc=0
 colcon test --event-handlers console_cohesion+ summary+ --return-code-on-test-failure \
     || colcon_rc=$?
-echo "== test results"
-python -m phri_common.junit_summary build "${PACKAGES[@]}"
 # colcon lint needs launch, launch_ros and a rosdep database, which only a ROS install has (no
 # wheels exist); test_packaging.py (run above) makes the same import/package.xml check anyway.
+lint_rc=0
 if python -c "import colcon_lint.verb.lint_depends" >/dev/null 2>&1 \
         && rosdep resolve rclpy >/dev/null 2>&1; then
-    echo "== colcon lint"; colcon lint
+    echo "== colcon lint"; colcon lint || lint_rc=$?
 else
     echo "== colcon lint: skipped (needs launch, launch_ros and rosdep's database: a ROS install)"
 fi
-exit "$colcon_rc"
+echo "== test results"  # last, so the closing line is the suite's "N passed, N failed, N skipped"
+summary_rc=0
+python -m phri_common.junit_summary build "${PACKAGES[@]}" || summary_rc=$?
+for rc in "$colcon_rc" "$lint_rc" "$summary_rc"; do
+    if [ "$rc" -ne 0 ]; then exit "$rc"; fi
+done
