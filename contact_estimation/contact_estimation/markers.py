@@ -79,3 +79,36 @@ def contact_markers(state: ContactState, scales: MarkerScales | None = None) -> 
     region.pose.position = _point(0.5 * (state.region_min + state.region_max))
     region.pose.orientation.w = 1.0
     return [sphere, force, torque, region]
+
+
+class MarkerThrottle:
+    """Limits marker arrays to ``rate_hz`` per link on the contact states' own clock.
+
+    Contact states come at the skin rate (500 Hz per patch, ≈ 550 Hz of marker arrays in the
+    simulation), far more than a viewer draws. A link's markers go out when its first state
+    arrives, when its contact starts or ends (so a released contact is deleted at once), and
+    otherwise at most once per 1/``rate_hz`` of state time (``stamp_ns``); 0 = every state.
+    """
+
+    def __init__(self, rate_hz: float) -> None:
+        self.set_rate(rate_hz)
+        self._last: dict[str, tuple[int, bool]] = {}
+
+    def set_rate(self, rate_hz: float) -> None:
+        """Change the rate [Hz] (≥ 0; 0 = no throttling).
+
+        Raises:
+            ValueError: ``rate_hz`` is negative or not finite.
+        """
+        if not (np.isfinite(rate_hz) and rate_hz >= 0.0):
+            raise ValueError(f"marker_rate_hz must be finite and >= 0 Hz, got {rate_hz}")
+        self.period_ns = 0 if rate_hz == 0.0 else round(1e9 / rate_hz)
+
+    def due(self, state: ContactState) -> bool:
+        """Whether ``state``'s markers should be published now (and remember it if so)."""
+        last = self._last.get(state.link)
+        if (last is not None and last[1] == state.in_contact
+                and 0 <= state.stamp_ns - last[0] < self.period_ns):
+            return False
+        self._last[state.link] = (state.stamp_ns, state.in_contact)
+        return True

@@ -38,7 +38,7 @@ from contact_estimation.estimator import (
     EstimatorConfig,
     InvalidTaxelData,
 )
-from contact_estimation.markers import MarkerScales, contact_markers
+from contact_estimation.markers import MarkerScales, MarkerThrottle, contact_markers
 from phri_common.contact import contact_to_msg
 from phri_common.params import ParamSpec, ParamValue
 from phri_common.ros_main import run_nodes
@@ -66,6 +66,9 @@ PARAMS: list[ParamSpec] = [
               "saturates at ≈ 32 N)", unit="N", low=MAX_TAXEL_FORCE_RANGE[0],
               high=MAX_TAXEL_FORCE_RANGE[1]),
     ParamSpec("publish_markers", True, "publish rviz markers on contacts/markers"),
+    ParamSpec("marker_rate_hz", 30.0, "most marker arrays per second per link (state time; a "
+              "contact that starts or ends is always drawn); 0 = every frame", unit="Hz",
+              low=0.0, high=1000.0),
     ParamSpec("marker_force_scale", 0.01, "force arrow length per newton", unit="m/N",
               low=0.0, high=10.0),
     ParamSpec("marker_torque_scale", 0.1, "torque arrow length per N·m", unit="m/(N·m)",
@@ -123,6 +126,7 @@ class ContactEstimationNode(Node):
         self._patch_links = patch_link_map(patches, links)
         self._estimator = ContactEstimator(self._patch_links, config_from_values(self._values))
         self._scales = self._marker_scales(self._values)
+        self._marker_throttle = MarkerThrottle(float(self._values["marker_rate_hz"]))
         self._received = dict.fromkeys(patches, 0)
         self._refused = dict.fromkeys(patches, 0)
         self._last_error: dict[str, str] = dict.fromkeys(patches, "")
@@ -159,6 +163,7 @@ class ContactEstimationNode(Node):
         period = float(values["diagnostics_period"])
         if period != float(self._values["diagnostics_period"]):
             self._diag_timer.timer_period_ns = int(period * 1e9)
+        self._marker_throttle.set_rate(float(values["marker_rate_hz"]))
         self._values = values
 
     def _on_taxels(self, patch: str, msg: PointCloud2) -> None:
@@ -181,7 +186,7 @@ class ContactEstimationNode(Node):
             )
             return
         self._state_pubs[link].publish(contact_to_msg(state))
-        if self._values["publish_markers"]:
+        if self._values["publish_markers"] and self._marker_throttle.due(state):
             self._marker_pub.publish(MarkerArray(markers=contact_markers(state, self._scales)))
 
     def _publish_diagnostics(self) -> None:

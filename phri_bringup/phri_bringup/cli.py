@@ -242,7 +242,7 @@ def cmd_graph(args: argparse.Namespace) -> int:
     nodes = sim_graph(args.scenario) if args.which == "sim" else real_graph()
     for n in nodes:
         ns = f"/{n.namespace}" if n.namespace else ""
-        files = ", ".join(f"config/{f}.yaml" for f in n.parameter_files) or "-"
+        files = ", ".join(f if "/" in f else f"config/{f}.yaml" for f in n.parameter_files) or "-"
         print(f"{ns}/{n.name}: {n.package}/{n.executable}  params: {files} {n.parameters or ''}"
               f"{'  [in-process in phri sim]' if n.in_process else ''}")
     return 0

@@ -25,7 +25,14 @@ from rclpy.context import Context
 from rclpy.signals import SignalHandlerOptions
 
 import phri_bringup.params as param_files
-from phri_bringup.graph import BRIDGE, CONTROLLER, ESTIMATION, canonical_scenario, config_file
+from phri_bringup.graph import (
+    BRIDGE,
+    CONTROLLER,
+    ESTIMATION,
+    canonical_scenario,
+    config_file,
+    robot_description_urdf,
+)
 from phri_bringup.graph import scenario_file as scenario_file_stem
 from phri_bringup.observer import ObserverNode, Sink
 
@@ -132,7 +139,7 @@ def run_session(
     observer: list[ObserverNode] = []
 
     def make_observer(ctx: Context) -> ObserverNode:
-        node = ObserverNode(ctx, sinks, pace=pace)
+        node = ObserverNode(ctx, sinks, pace=pace, robot_description=robot_description_urdf())
         observer.append(node)
         return node
 

@@ -19,7 +19,6 @@ import sys
 from typing import Any
 
 import numpy as np
-import rclpy
 from geometry_msgs.msg import (
     Point,
     PointStamped,
@@ -40,6 +39,7 @@ from std_msgs.msg import Float64MultiArray, Header
 from phri_common import paper
 from phri_common.params import ParamSpec, ParamValue
 from phri_common.planar import quaternion_from_yaw
+from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
 from phri_common.taxels import TaxelCloudEncoder
@@ -105,7 +105,7 @@ def yaw_quaternion(yaw: float) -> Quaternion:
 
 def joint_state_msg(names: tuple[str, ...], q: np.ndarray, qd: np.ndarray, stamp_ns: int
                     ) -> JointState:
-    """JointState of the arm joints (positions [rad], velocities [rad/s])."""
+    """JointState of ``names`` (positions [rad] or [m], velocities [rad/s] or [m/s])."""
     return JointState(
         header=Header(stamp=ns_to_stamp(stamp_ns)),
         name=list(names),
@@ -284,10 +284,11 @@ class SimBridgeNode(Node):
         self.clock_pub.publish(Clock(clock=ns_to_stamp(self.stamp_ns)))
 
     def publish_state(self) -> None:
-        """/joint_states (12 arm joints) and /odom."""
+        """/joint_states (the base joints base_x, base_y, base_yaw, then the 12 arm joints, so
+        robot_state_publisher connects odom → base_link) and /odom."""
         stamp = self.stamp_ns
         q, qd = self.sim.q, self.sim.qd
-        self.joint_pub.publish(joint_state_msg(self.sim.joint_names[3:], q[3:], qd[3:], stamp))
+        self.joint_pub.publish(joint_state_msg(self.sim.joint_names, q, qd, stamp))
         self.odom_pub.publish(odometry_msg(q[:3], self.sim.base_twist(), stamp))
 
     def publish_skin(self, *, force: bool = False) -> None:
@@ -366,18 +367,10 @@ class SimBridgeNode(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    """Entry point ``phri_sim_bridge``: the free-running simulation until Ctrl-C."""
-    rclpy.init(args=args if args is not None else sys.argv)
-    try:
-        node = SimBridgeNode()
-    except ValueError as err:
-        print(f"phri_sim: {err}", file=sys.stderr)
-        rclpy.try_shutdown()
-        sys.exit(2)
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
+    """Entry point ``phri_sim_bridge``: the free-running simulation until Ctrl-C / SIGTERM.
+
+    Runs under :func:`phri_common.ros_main.run_nodes`, whose signal handlers only set a stop flag:
+    with rclpy's default handler, SIGINT invalidated the context while a timer tick was still
+    publishing, and the bridge died with ``RCLError: Failed to publish: publisher's context is
+    invalid`` (most launches stopped with Ctrl-C, measured; test_bridge.py checks the exit)."""
+    sys.exit(run_nodes(lambda: [SimBridgeNode()], "phri_sim", args))
