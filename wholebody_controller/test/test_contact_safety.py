@@ -12,7 +12,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from wbc_rotations import exp_rotvec
 
+from phri_common.iso15066 import SKIN_LINK_REGIONS
 from phri_common.records import ContactState
+from phri_description.description import SKIN_LINKS
 from wholebody_controller.config import WALTZ, AdmittanceGains, ControllerConfig, LinkTaskConfig
 from wholebody_controller.contact_safety import (
     ForceGuard,
@@ -88,6 +90,10 @@ def test_safety_config_refusals_name_the_field() -> None:
         SafetyConfig(fade_start=1.0)
     with pytest.raises(ValueError, match="force_limit"):
         LinkTaskConfig(LINK, force_limit=300.0, transient_force_limit=200.0)
+
+
+def test_every_skin_link_of_the_description_has_a_body_region() -> None:
+    assert set(SKIN_LINK_REGIONS) == set(SKIN_LINKS)
 
 
 def test_default_limits_are_the_regions_of_iso_ts_15066() -> None:
