@@ -43,6 +43,7 @@ from phri_common.planar import quaternion_from_yaw
 from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
 from phri_common.taxels import TaxelCloudEncoder
+from phri_sim.faults import DEFAULT_FAULT_TIME, FAULT_KINDS, FaultSpec, SensorFaults
 from phri_sim.scenarios import Q_HOME, SCENARIOS, Script, start_scenario
 from phri_sim.sim import ARM_JOINTS, CommandError, SimConfig, Simulation
 from phri_sim.skin import SkinConfig
@@ -79,6 +80,10 @@ PARAMS: list[ParamSpec] = [
     ParamSpec("skin_softness", 0.004, "thickness of the footprint model's compliant layer",
               unit="m", low=1e-4, high=0.05, read_only=True),
     ParamSpec("viewer", False, "open the MuJoCo viewer (needs a display)", read_only=True),
+    ParamSpec("fault", "", "sensor fault to inject ('' = none): skin_blind, skin_stuck, "
+              "force_spike, joint_jump (docs: Fault injection)", read_only=True),
+    ParamSpec("fault_time", DEFAULT_FAULT_TIME, "sim time from which the fault acts",
+              unit="s", low=0.0, high=1e6, read_only=True),
 ]
 
 SENSOR_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
@@ -152,6 +157,10 @@ class SimBridgeNode(Node):
                 f"parameter 'scenario' refused value {scenario_name!r}: allowed '' or "
                 f"{', '.join(SCENARIOS)}"
             )
+        fault = str(v["fault"])
+        if fault and fault not in FAULT_KINDS:
+            raise ValueError(f"parameter 'fault' refused value {fault!r}: allowed '' or "
+                             f"{', '.join(FAULT_KINDS)}")
         config = SimConfig(
             skin=SkinConfig(softness=float(v["skin_softness"]),
                             noise_std=float(v["skin_noise_std"])),
@@ -174,6 +183,10 @@ class SimBridgeNode(Node):
             self.script = start_scenario(self.sim, self.scenario)
         else:
             self.sim.reset(np.array(Q_HOME))
+        self.faults = SensorFaults(
+            FaultSpec(fault, float(v["fault_time"])) if fault else None,
+            self.sim.joint_names[3:],
+        )
         self.period = float(v["control_period"])
         self.steps_per_period = max(1, round(self.period / self.sim.dt))
         self._skin_every = max(1, round(1.0 / (float(v["skin_rate_hz"]) * self.sim.dt)))
@@ -284,14 +297,16 @@ class SimBridgeNode(Node):
         self.clock_pub.publish(Clock(clock=ns_to_stamp(self.stamp_ns)))
 
     def publish_state(self) -> None:
-        """/joint_states (12 arm joints) and /odom."""
+        """/joint_states (12 arm joints, through the sensor faults) and /odom."""
         stamp = self.stamp_ns
         q, qd = self.sim.q, self.sim.qd
-        self.joint_pub.publish(joint_state_msg(self.sim.joint_names[3:], q[3:], qd[3:], stamp))
+        arm = self.faults.joints(q[3:], self.sim.time)
+        self.joint_pub.publish(joint_state_msg(self.sim.joint_names[3:], arm, qd[3:], stamp))
         self.odom_pub.publish(odometry_msg(q[:3], self.sim.base_twist(), stamp))
 
     def publish_skin(self, *, force: bool = False) -> None:
-        """One taxel array per patch (frame = the patch's link).
+        """One taxel array per patch (frame = the patch's link), noisy, through the sensor
+        faults.
 
         With ``skin_idle_decimation`` N > 1 a patch nobody touches (and that was untouched in
         its last published frame) is published only every N-th time; ``force`` publishes every
@@ -311,7 +326,8 @@ class SimBridgeNode(Node):
                     continue
                 self._idle_count[name] = 0
                 self._was_touched[name] = touched
-            forces = self.sim.add_skin_noise(name, clean)
+            forces = self.faults.taxels(name, self.sim.add_skin_noise(name, clean),
+                                        self.sim.time)
             self.skin_pubs[name].publish(self.encoders[name].encode(forces, stamp))
             self.published_patches.append(name)
 

@@ -48,6 +48,7 @@ from phri_common.contact import ContactMessageError, msg_to_contact
 from phri_common.records import ContactState
 from phri_description.description import SKIN_LINKS
 from phri_sim.bridge import SimBridgeNode
+from phri_sim.faults import DEFAULT_FAULT_TIME, FAULT_KINDS
 from phri_sim.metrics import MetricsRecorder
 from phri_sim.scenarios import SCENARIOS, Scenario
 
@@ -170,6 +171,8 @@ class ScenarioRun:
         viewer: bool = False,
         recorder: Recorder | None = None,
         progress: Progress | None = None,
+        fault: str = "",
+        fault_time: float = DEFAULT_FAULT_TIME,
     ) -> None:
         if name not in SCENARIOS:
             raise ValueError(f"unknown scenario {name!r}; known: {', '.join(SCENARIOS)}")
@@ -185,6 +188,7 @@ class ScenarioRun:
             Parameter("viewer", value=viewer),
             Parameter("skin_idle_decimation", value=skin_idle_decimation),
             Parameter("physics_timestep", value=physics_timestep),
+            Parameter("fault", value=fault), Parameter("fault_time", value=float(fault_time)),
         ])
         self.estimation = _estimation_node(context, sc)
         self.controller = _controller_node(controller, context, sc)
@@ -209,7 +213,9 @@ class ScenarioRun:
         self.metrics = MetricsRecorder(
             sc.metrics, float(sc.controller_parameters.get("velocity_limit", paper.VELOCITY_LIMIT)),
             _dance_ranges(sc.controller_parameters),
+            fault_time=float(fault_time) if fault else None,
         )
+        self.metrics.watch(self.bridge.sim)
         self._last_command = np.zeros(15)
         self._fresh_links: set[str] = set(SKIN_LINKS)
         self.wall_time = 0.0
@@ -286,6 +292,7 @@ class ScenarioRun:
                 next_report += 1.0
         self.wall_time = time.perf_counter() - start
         cpu_time = time.process_time() - cpu_start
+        self.metrics.fault_applied = list(self.bridge.faults.applied)
         summary = self.metrics.summary()
         summary.update({
             "scenario": self.scenario.name,
@@ -299,6 +306,8 @@ class ScenarioRun:
             "controller": "stub (zero commands)" if self.is_stub else "wholebody_controller",
             "commands_refused": self.bridge.commands_refused,
         })
+        if self.bridge.faults.spec is not None:
+            summary["fault"]["kind"] = self.bridge.faults.spec.kind
         return summary
 
     def close(self) -> None:
@@ -349,6 +358,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--stub", action="store_true", help="zero-command stub controller")
     parser.add_argument("--viewer", action="store_true", help="MuJoCo viewer (needs a display)")
     parser.add_argument("--out", default=None, help="metrics JSON path")
+    parser.add_argument("--fault", choices=FAULT_KINDS, default=None,
+                        help="inject a sensor fault (docs/phri_sim.md, Fault injection)")
+    parser.add_argument("--fault-time", type=float, default=DEFAULT_FAULT_TIME,
+                        help="sim time the fault starts [s] (default 5)")
     args = parser.parse_args(argv)
 
     def report(t: float, total: float) -> None:
@@ -360,6 +373,7 @@ def main(argv: list[str] | None = None) -> None:
         seed=args.seed, skin_rate_hz=args.skin_rate,
         skin_idle_decimation=args.skin_idle_decimation,
         controller="stub" if args.stub else "node", viewer=args.viewer, progress=report,
+        fault=args.fault or "", fault_time=args.fault_time,
     )
     print(json.dumps(metrics, indent=2))
 
