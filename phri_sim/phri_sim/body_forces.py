@@ -26,6 +26,7 @@ from __future__ import annotations
 from collections import deque
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -176,3 +177,10 @@ def limit_report(region: BodyRegion | None, peak: float, sustained: float) -> di
         "transient_limit": region.transient,
         "ok": bool(ok),
     }
+
+
+def limit_failures(report: Mapping[str, Any]) -> dict[str, Any]:
+    """The rows of an ``iso15066`` metrics block (``person`` and ``robot_links``) that are not
+    ``ok``, by name (empty: every part and link within its limits)."""
+    rows = {**report["person"], **report["robot_links"]}
+    return {name: row for name, row in rows.items() if not row["ok"]}

@@ -256,6 +256,11 @@ class SimBridgeNode(Node):
         """Simulation time [ns] (integer steps × dt, so stamps are exact)."""
         return round(self.step_count * self.sim.dt * 1e9)
 
+    @property
+    def fault_clock(self) -> float:
+        """Sim time [s] the sensor faults see: the exact stamp of the outgoing messages."""
+        return self.stamp_ns * 1e-9
+
     def advance(self, periods: int = 1, *, clock: bool = True) -> None:
         """Advance ``periods`` control periods, publishing each topic when it falls due; publish
         /clock at the end unless ``clock`` is False (lock-step publishes it after the sensors
@@ -300,7 +305,7 @@ class SimBridgeNode(Node):
         """/joint_states (12 arm joints, through the sensor faults) and /odom."""
         stamp = self.stamp_ns
         q, qd = self.sim.q, self.sim.qd
-        arm = self.faults.joints(q[3:], self.sim.time)
+        arm = self.faults.joints(q[3:], self.fault_clock)
         self.joint_pub.publish(joint_state_msg(self.sim.joint_names[3:], arm, qd[3:], stamp))
         self.odom_pub.publish(odometry_msg(q[:3], self.sim.base_twist(), stamp))
 
@@ -327,7 +332,7 @@ class SimBridgeNode(Node):
                 self._idle_count[name] = 0
                 self._was_touched[name] = touched
             forces = self.faults.taxels(name, self.sim.add_skin_noise(name, clean),
-                                        self.sim.time)
+                                        self.fault_clock)
             self.skin_pubs[name].publish(self.encoders[name].encode(forces, stamp))
             self.published_patches.append(name)
 

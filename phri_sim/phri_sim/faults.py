@@ -86,12 +86,17 @@ class SensorFaults:
         joint_names: the names of the joint-state positions, in message order.
 
     Attributes:
-        applied: sim times [s] of the frames / messages the fault changed, in order.
+        changed: per channel (patch name, or ``joint_states``) the sim time [s] of the last
+            frame / message the fault changed.
+        changes: how many frames / messages the fault changed.
+        first_change: sim time [s] of the first one (``None`` = none yet).
     """
 
     def __init__(self, spec: FaultSpec | None, joint_names: tuple[str, ...]) -> None:
         self.spec = spec
-        self.applied: list[float] = []
+        self.changed: dict[str, float] = {}
+        self.changes = 0
+        self.first_change: float | None = None
         self._joint = -1
         if spec is not None and spec.kind == "joint_jump":
             if spec.joint not in joint_names:
@@ -109,13 +114,13 @@ class SensorFaults:
         """The taxel forces [N] patch ``patch`` reports at sim time ``t`` [s] for the true
         reading ``forces`` (returned unchanged when no skin fault acts; never modified)."""
         if self._active(t, "skin_blind"):
-            self._mark(t)
+            self._mark(patch, t)
             return np.zeros_like(forces)
         if self.spec is not None and self.spec.kind == "skin_stuck":
             if t < self.spec.time - 1e-9:
                 self._last[patch] = forces.copy()
                 return forces
-            self._mark(t)
+            self._mark(patch, t)
             return self._last.setdefault(patch, forces.copy()).copy()
         if self._active(t, "force_spike") and not self._done and forces.size and (
             self.spec is not None and (self.spec.patch in ("", patch))
@@ -124,7 +129,7 @@ class SensorFaults:
             out = forces.copy()
             out[int(np.argmax(forces))] = self.spec.magnitude
             self._done = True
-            self._mark(t)
+            self._mark(patch, t)
             return out
         return forces
 
@@ -135,10 +140,16 @@ class SensorFaults:
             out = np.array(q, dtype=np.float64)
             out[self._joint] = self.spec.magnitude
             self._done = True
-            self._mark(t)
+            self._mark("joint_states", t)
             return out
         return q
 
-    def _mark(self, t: float) -> None:
-        if not self.applied or self.applied[-1] != t:
-            self.applied.append(t)
+    def changed_at(self, t: float) -> set[str]:
+        """The channels whose frame / message at sim time ``t`` [s] the fault changed."""
+        return {channel for channel, when in self.changed.items() if when == t}
+
+    def _mark(self, channel: str, t: float) -> None:
+        self.changed[channel] = t
+        self.changes += 1
+        if self.first_change is None:
+            self.first_change = t

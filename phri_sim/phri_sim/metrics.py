@@ -78,6 +78,8 @@ class _AfterFault:
     stopped_since: float | None = None
     zero_periods: int = 0
     periods: int = 0
+    first_command_zero: bool | None = None
+    max_command: float = 0.0
 
     def sample(self, t: float, q: FloatArray, command: FloatArray) -> None:
         """Travel, excursion and command state at ``t`` [s] (≥ the fault time)."""
@@ -92,6 +94,9 @@ class _AfterFault:
                                        float(np.max(np.abs(q[3:] - self.q_start[3:]))))
         self.periods += 1
         zero = not np.any(command)
+        if self.first_command_zero is None:
+            self.first_command_zero = zero
+        self.max_command = max(self.max_command, float(np.max(np.abs(command))))
         if zero:
             self.zero_periods += 1
             self.first_zero = t if self.first_zero is None else self.first_zero
@@ -117,6 +122,8 @@ class _AfterFault:
             "time_to_recover": recover,
             "zero_command_periods": self.zero_periods,
             "periods": self.periods,
+            "command_zero_at_fault": self.first_command_zero,
+            "max_command": self.max_command,
         }
 
 
@@ -149,7 +156,8 @@ class MetricsRecorder:
         self.forces = ForceLimitTracker()
         self.touching: set[tuple[str, str]] = set()
         self.after = None if fault_time is None else _AfterFault(fault_time)
-        self.fault_applied: list[float] = []
+        self.fault_changes: tuple[float | None, int] = (None, 0)
+        """(sim time [s] of the first sensor message the fault changed, how many it changed)."""
         self._reader: PersonRobotForces | None = None
         self._sim: Simulation | None = None
 
@@ -251,7 +259,7 @@ class MetricsRecorder:
             if self._reader is not None:
                 after["forces"] = self._iso_summary(self.after.forces)
             after["fault_time"] = self.after.time
-            after["applied_at"] = list(self.fault_applied)
+            after["first_changed_at"], after["messages_changed"] = self.fault_changes
             out["fault"] = after
         if self.kind == "waltz":
             out["waltz"] = self._waltz_summary()

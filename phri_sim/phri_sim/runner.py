@@ -218,6 +218,7 @@ class ScenarioRun:
         self.metrics.watch(self.bridge.sim)
         self._last_command = np.zeros(15)
         self._fresh_links: set[str] = set(SKIN_LINKS)
+        self._skip_joints = False
         self.wall_time = 0.0
 
     def _on_estimate(self, link: str, msg: PointCloud2) -> None:
@@ -250,7 +251,8 @@ class ScenarioRun:
                 return False
         ctrl = self.controller
         if hasattr(ctrl, "odom_time") and hasattr(ctrl, "arm_time"):
-            return bool(ctrl.odom_time != marks[0] and np.min(ctrl.arm_time) != marks[1])
+            joints = self._skip_joints or np.min(ctrl.arm_time) != marks[1]
+            return bool(ctrl.odom_time != marks[0] and joints)
         return True
 
     def _marks(self) -> tuple[Any, ...]:
@@ -264,7 +266,11 @@ class ScenarioRun:
         bridge.advance(1, clock=False)
         stamp = bridge.stamp_ns
         patch_link = bridge.sim.skins.patch_link
-        self._fresh_links = {patch_link[p] for p in bridge.published_patches}
+        # A frame or joint state an injected fault corrupted this period may be refused
+        # downstream (no contact state, no joint-state update): the lock-step does not wait for it.
+        faulted = bridge.faults.changed_at(bridge.fault_clock)
+        self._fresh_links = {patch_link[p] for p in bridge.published_patches if p not in faulted}
+        self._skip_joints = "joint_states" in faulted
         self.spin_until(lambda: self._inputs_ready(stamp, marks), "sensor data")
         before = dict(bridge.commands_received)
         bridge.publish_clock()
@@ -292,7 +298,8 @@ class ScenarioRun:
                 next_report += 1.0
         self.wall_time = time.perf_counter() - start
         cpu_time = time.process_time() - cpu_start
-        self.metrics.fault_applied = list(self.bridge.faults.applied)
+        faults = self.bridge.faults
+        self.metrics.fault_changes = (faults.first_change, faults.changes)
         summary = self.metrics.summary()
         summary.update({
             "scenario": self.scenario.name,
