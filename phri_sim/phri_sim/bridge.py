@@ -102,6 +102,17 @@ def _check_divides(step: float, periods: dict[str, float]) -> None:
             )
 
 
+def sensor_faults(values: dict[str, ParamValue], joint_names: tuple[str, ...]) -> SensorFaults:
+    """The sensor faults of the ``fault`` and ``fault_time`` parameters; ValueError naming the
+    parameter for an unknown fault."""
+    fault = str(values["fault"])
+    if fault and fault not in FAULT_KINDS:
+        raise ValueError(f"parameter 'fault' refused value {fault!r}: allowed '' or "
+                         f"{', '.join(FAULT_KINDS)}")
+    spec = FaultSpec(fault, float(values["fault_time"])) if fault else None
+    return SensorFaults(spec, joint_names)
+
+
 def yaw_quaternion(yaw: float) -> Quaternion:
     """Quaternion of a rotation about z by ``yaw`` [rad]."""
     w, x, y, z = quaternion_from_yaw(yaw)
@@ -157,10 +168,6 @@ class SimBridgeNode(Node):
                 f"parameter 'scenario' refused value {scenario_name!r}: allowed '' or "
                 f"{', '.join(SCENARIOS)}"
             )
-        fault = str(v["fault"])
-        if fault and fault not in FAULT_KINDS:
-            raise ValueError(f"parameter 'fault' refused value {fault!r}: allowed '' or "
-                             f"{', '.join(FAULT_KINDS)}")
         config = SimConfig(
             skin=SkinConfig(softness=float(v["skin_softness"]),
                             noise_std=float(v["skin_noise_std"])),
@@ -183,10 +190,7 @@ class SimBridgeNode(Node):
             self.script = start_scenario(self.sim, self.scenario)
         else:
             self.sim.reset(np.array(Q_HOME))
-        self.faults = SensorFaults(
-            FaultSpec(fault, float(v["fault_time"])) if fault else None,
-            self.sim.joint_names[3:],
-        )
+        self.faults = sensor_faults(v, self.sim.joint_names[3:])
         self.period = float(v["control_period"])
         self.steps_per_period = max(1, round(self.period / self.sim.dt))
         self._skin_every = max(1, round(1.0 / (float(v["skin_rate_hz"]) * self.sim.dt)))
@@ -201,6 +205,17 @@ class SimBridgeNode(Node):
         self.commands_received = dict.fromkeys(("base", "left", "right"), 0)
         self.commands_refused = 0
 
+        self._make_topics()
+        if bool(v["viewer"]):
+            self._open_viewer()
+        self.timer = None
+        if not bool(v["lockstep"]):
+            wall = self.period / float(v["real_time_factor"])
+            self.timer = self.create_timer(wall, self._tick)
+        self.publish_all(clock=True)
+
+    def _make_topics(self) -> None:
+        """Encoders, publishers and command subscriptions (docs/phri_sim.md, Topics)."""
         self.encoders = {
             name: TaxelCloudEncoder(p.layout.positions, p.layout.normals, p.layout.link)
             for name, p in self.sim.patches.items()
@@ -226,13 +241,6 @@ class SimBridgeNode(Node):
             self.create_subscription(
                 Float64MultiArray, topic, lambda msg, side=side: self._on_arm(side, msg), 10
             )
-        if bool(v["viewer"]):
-            self._open_viewer()
-        self.timer = None
-        if not bool(v["lockstep"]):
-            wall = self.period / float(v["real_time_factor"])
-            self.timer = self.create_timer(wall, self._tick)
-        self.publish_all(clock=True)
 
     # -- commands -------------------------------------------------------------------------------
     def _command(self, channel: str, values: np.ndarray) -> None:

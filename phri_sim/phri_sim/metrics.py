@@ -26,7 +26,7 @@ and :meth:`MetricsRecorder.summary` reduces them to the scenario's JSON metrics:
   person and on every robot link, sampled on every physics step, beside the ISO/TS 15066 limits of
   the part's region (:mod:`phri_sim.body_forces`) and an ``ok`` flag per row and overall;
 * with a sensor fault (:mod:`phri_sim.faults`), ``fault``: what the robot did from the fault time
-  t_f on (:meth:`MetricsRecorder._fault_summary`);
+  t_f on (``_AfterFault.summary``, docs/phri_sim.md "Fault injection");
 * ``waltz``: the person's torso path against the robot's base path (planar displacements from
   their starts): RMS error, the lag that best aligns them and the RMS error at that lag; the share
   of time the waist touches the left forearm (from the first touch on); peak / mean waist force.

@@ -153,6 +153,17 @@ def _dance_ranges(params: Mapping[str, Any]) -> FloatArray | None:
     return ranges
 
 
+def _metrics(scenario: Scenario, sim: Any, fault_time: float | None) -> MetricsRecorder:
+    """The run's metrics recorder, watching every physics step of ``sim``."""
+    params = scenario.controller_parameters
+    metrics = MetricsRecorder(
+        scenario.metrics, float(params.get("velocity_limit", paper.VELOCITY_LIMIT)),
+        _dance_ranges(params), fault_time=fault_time,
+    )
+    metrics.watch(sim)
+    return metrics
+
+
 class ScenarioRun:
     """One lock-step run of a scenario through the real nodes (module docstring)."""
 
@@ -182,14 +193,11 @@ class ScenarioRun:
         )
         self.context = context
         self.progress = progress
-        self.bridge = SimBridgeNode(context=context, parameter_overrides=[
-            Parameter("lockstep", value=True), Parameter("scenario", value=name),
-            Parameter("seed", value=seed), Parameter("skin_rate_hz", value=skin_rate_hz),
-            Parameter("viewer", value=viewer),
-            Parameter("skin_idle_decimation", value=skin_idle_decimation),
-            Parameter("physics_timestep", value=physics_timestep),
-            Parameter("fault", value=fault), Parameter("fault_time", value=float(fault_time)),
-        ])
+        self.bridge = SimBridgeNode(context=context, parameter_overrides=_params({
+            "lockstep": True, "scenario": name, "seed": seed, "skin_rate_hz": skin_rate_hz,
+            "viewer": viewer, "skin_idle_decimation": skin_idle_decimation,
+            "physics_timestep": physics_timestep, "fault": fault, "fault_time": float(fault_time),
+        }))
         self.estimation = _estimation_node(context, sc)
         self.controller = _controller_node(controller, context, sc)
         self.is_stub = controller == "stub"
@@ -210,12 +218,7 @@ class ScenarioRun:
         self.executor = EventsExecutor(context=context)
         for node in (self.bridge, self.estimation, self.controller, self.probe, *self.extra):
             self.executor.add_node(node)
-        self.metrics = MetricsRecorder(
-            sc.metrics, float(sc.controller_parameters.get("velocity_limit", paper.VELOCITY_LIMIT)),
-            _dance_ranges(sc.controller_parameters),
-            fault_time=float(fault_time) if fault else None,
-        )
-        self.metrics.watch(self.bridge.sim)
+        self.metrics = _metrics(sc, self.bridge.sim, float(fault_time) if fault else None)
         self._last_command = np.zeros(15)
         self._fresh_links: set[str] = set(SKIN_LINKS)
         self._skip_joints = False
