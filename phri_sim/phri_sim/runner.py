@@ -18,8 +18,13 @@ scenario's paper values, :mod:`phri_sim.scenarios`) and ``use_sim_time``. Each c
 Nothing depends on the wall clock, so a run is deterministic for a seed. A caller can add nodes
 (``recorder``: a factory called with the context, e.g. one that subscribes every topic for an
 MCAP recording) and follow progress (``progress(sim_time, duration)`` once per simulated second).
+``fault`` / ``fault_time`` inject a sensor fault in the bridge (:mod:`phri_sim.faults`); a frame
+or joint state the fault corrupted is not waited for in step 2 (downstream may refuse it). The
+metrics (:mod:`phri_sim.metrics`) also read the person↔robot contact forces after every physics
+step (:mod:`phri_sim.body_forces`).
 
-Command line: ``python -m phri_sim.runner waltz [--short] [--seed N] [--out metrics.json]``.
+Command line: ``python -m phri_sim.runner waltz [--short] [--seed N] [--out metrics.json]
+[--fault FAULT] [--fault-time T]``.
 """
 
 from __future__ import annotations
