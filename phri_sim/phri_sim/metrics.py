@@ -26,7 +26,7 @@ and :meth:`MetricsRecorder.summary` reduces them to the scenario's JSON metrics:
   person and on every robot link, sampled on every physics step, beside the ISO/TS 15066 limits of
   the part's region (:mod:`phri_sim.body_forces`) and an ``ok`` flag per row and overall;
 * with a sensor fault (:mod:`phri_sim.faults`), ``fault``: what the robot did from the fault time
-  t_f on (``_AfterFault.summary``, docs/phri_sim.md "Fault injection");
+  t_f on (``AfterFault.summary``, docs/phri_sim.md "Fault injection");
 * ``waltz``: the person's torso path against the robot's base path (planar displacements from
   their starts): RMS error, the lag that best aligns them and the RMS error at that lag; the share
   of time the waist touches the left forearm (from the first touch on); peak / mean waist force.
@@ -58,12 +58,14 @@ FloatArray = NDArray[np.float64]
 POSITION_TOLERANCE = 0.01
 """Slack on position ranges for servo tracking error [rad]."""
 VELOCITY_TOLERANCE = 1e-6
+STANDSTILL_SPEED = 1e-3
+"""A robot whose every joint rate is below this [m/s, rad/s] stands still."""
 SETTLE_TIME = 0.3
 """Samples this soon after a touch begins are not scored (filter and footprint build-up) [s]."""
 
 
 @dataclass
-class _AfterFault:
+class AfterFault:
     """What the robot did from the fault time on (one sample per control period)."""
 
     time: float
@@ -80,9 +82,15 @@ class _AfterFault:
     periods: int = 0
     first_command_zero: bool | None = None
     max_command: float = 0.0
+    still_since: float | None = None
 
-    def sample(self, t: float, q: FloatArray, command: FloatArray) -> None:
-        """Travel, excursion and command state at ``t`` [s] (≥ the fault time)."""
+    def sample(self, t: float, q: FloatArray, command: FloatArray,
+               qd: FloatArray | None = None) -> None:
+        """Travel, excursion, command and motion state at ``t`` [s] (≥ the fault time): ``q``
+        (15) [m, rad], the 15 commanded velocities, the 15 joint rates ``qd``."""
+        moving = qd is not None and float(np.max(np.abs(qd))) > STANDSTILL_SPEED
+        self.still_since = None if moving else (t if self.still_since is None
+                                                else self.still_since)
         if self.q_start is None:
             self.q_start = q.copy()
         if self.last_base is not None:
@@ -119,6 +127,7 @@ class _AfterFault:
             "max_joint_excursion": self.max_joint_excursion,
             "time_to_zero_command": rel(self.first_zero),
             "time_to_stop": rel(self.stopped_since),
+            "time_to_standstill": rel(self.still_since),
             "time_to_recover": recover,
             "zero_command_periods": self.zero_periods,
             "periods": self.periods,
@@ -155,7 +164,7 @@ class MetricsRecorder:
         self.max_band_deviation = 0.0
         self.forces = ForceLimitTracker()
         self.touching: set[tuple[str, str]] = set()
-        self.after = None if fault_time is None else _AfterFault(fault_time)
+        self.after = None if fault_time is None else AfterFault(fault_time)
         self.fault_changes: tuple[float | None, int] = (None, 0)
         """(sim time [s] of the first sensor message the fault changed, how many it changed)."""
         self._reader: PersonRobotForces | None = None
@@ -217,7 +226,7 @@ class MetricsRecorder:
                     abs(float(np.linalg.norm(est.force)) - float(np.linalg.norm(gt.force_link)))
                 )
         if self.after is not None and t >= self.after.time - 1e-9:
-            self.after.sample(t, q, command)
+            self.after.sample(t, q, command, sim.qd)
         self.base_path.append(q[:2].copy())
         torso = next((p.name for p in sim.parts if p.name == "person_torso"), None)
         if torso is not None:
