@@ -109,6 +109,8 @@ def run_session(
     stop: StopFlag | None = None,
     context: Context | None = None,
     inspect: Callable[[Any], None] | None = None,
+    fault: str = "",
+    fault_time: float = 5.0,
 ) -> SessionResult:
     """Run ``scenario`` (any accepted spelling) lock-step through the real nodes.
 
@@ -122,6 +124,8 @@ def run_session(
             clean shutdown) and ``interrupted`` is True.
         context: an initialised rclpy context to use (tests); else one is made and shut down.
         inspect: called with the :class:`~phri_sim.runner.ScenarioRun` before it runs (tests).
+        fault, fault_time: sensor fault to inject and its start [s] (:mod:`phri_sim.faults`;
+            '' = none).
     """
     from phri_sim.runner import ScenarioRun
 
@@ -156,7 +160,8 @@ def run_session(
     try:
         with _scenario_parameters(name, sections):
             run = ScenarioRun(name, context=context, duration=duration, short=short, seed=seed,
-                              recorder=make_observer, progress=on_progress)
+                              recorder=make_observer, progress=on_progress, fault=fault,
+                              fault_time=fault_time)
         if inspect is not None:
             inspect(run)
         try:
