@@ -72,7 +72,6 @@ def test_the_fault_reaches_the_sensor_stream_at_its_time(runs: Runs, fault: str,
 
 
 @pytest.mark.ros
-@pytest.mark.xfail(strict=True, reason=CONTROLLER_SIDE)
 def test_blinded_skin_keeps_the_person_safe_and_stops_the_robot(runs: Runs) -> None:
     """Issue 11: a skin that reads nothing is a fault — the robot may move to regain contact
     only within a bounded distance and time (e.g. 0.15 m / 2 s), then stops; the person is never
@@ -106,7 +105,6 @@ def test_force_spike_commands_resume_within_one_period(runs: Runs) -> None:
 
 
 @pytest.mark.ros
-@pytest.mark.xfail(strict=True, reason=CONTROLLER_SIDE)
 def test_joint_jump_is_refused_for_one_period_then_commands_resume(runs: Runs) -> None:
     """The elbow reads 10 rad (limit ±π) in one joint state: that period's command is zero (bad
     input refused), the next good message commands again."""

@@ -435,6 +435,12 @@ class ContactTask:
             phase, velocities = _INACTIVE, _ZERO12
         if scale < 1.0:
             velocities = self._guarded(velocities, rot, normal, scale)
+        elif self.regain.exhausted:
+            # Contact lost past the regain budget: this link stops and waits for a touch (no
+            # pull back to the old reference either); a new touch re-activates the task afresh.
+            adm.reset()
+            self.life_cycle.reset()
+            velocities = _ZERO12
         x, v = adm.state_f
         k = self.k_eta
         mx, my, mz = _ZERO3 if mu is _ZERO3 else rotate(rot, mu)
