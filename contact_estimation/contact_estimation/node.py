@@ -11,7 +11,8 @@ Thin wrapper around :class:`contact_estimation.estimator.ContactEstimator`. Inte
 * publishes ``/diagnostics`` (diagnostic_msgs/DiagnosticArray) every ``diagnostics_period``.
 
 A refused frame (malformed message, NaN/Inf anywhere, a force beyond ``max_taxel_force``, an
-empty cloud, wrong frame_id, wrong size; checked on every frame) is counted, reported on
+empty cloud, wrong frame_id, wrong size, a stuck skin repeating its loaded frame for longer than
+``stuck_timeout``; checked on every frame) is counted, reported on
 diagnostics and logged (throttled); no contact state is published for it, the node stays up and
 keeps serving every other patch. Downstream treats the missing state as stale.
 """
@@ -65,6 +66,8 @@ PARAMS: list[ParamSpec] = [
               "with any taxel |force| above it is refused as corrupted (the default skin "
               "saturates at ≈ 32 N)", unit="N", low=MAX_TAXEL_FORCE_RANGE[0],
               high=MAX_TAXEL_FORCE_RANGE[1]),
+    ParamSpec("stuck_timeout", 0.5, "a touched patch whose frame repeats bit for bit for longer "
+              "than this is stuck: its frames are refused", unit="s", low=0.01, high=60.0),
     ParamSpec("publish_markers", True, "publish rviz markers on contacts/markers"),
     ParamSpec("marker_rate_hz", 30.0, "most marker arrays per second per link (state time; a "
               "contact that starts or ends is always drawn); 0 = every frame", unit="Hz",
@@ -92,6 +95,7 @@ def config_from_values(values: dict[str, ParamValue]) -> EstimatorConfig:
         force_threshold=float(values["force_threshold"]),
         torque_limit=(float(limit[0]), float(limit[1]), float(limit[2])),
         max_taxel_force=float(values["max_taxel_force"]),
+        stuck_timeout=float(values["stuck_timeout"]),
     )
 
 

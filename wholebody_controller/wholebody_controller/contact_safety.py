@@ -18,8 +18,9 @@ Contact gating. A manual desired force (the waltz's 10 N) acts only while the li
 After contact is lost it may keep acting, to regain the contact, only while the link frame has
 travelled less than ``regain_distance`` and less than ``regain_time`` has passed; then it is
 switched off until the next touch, the link's task stops (zero target, admittance and reference
-reset, so it neither pushes on nor pulls back) and the loss is reported. A blinded skin (no contact reported
-while the robot moves) therefore costs at most that distance, never an open-loop push.
+reset, so it neither pushes on nor pulls back) and the loss is reported. A blinded skin (no
+contact reported while the robot moves) therefore costs at most that distance, never an
+open-loop push.
 """
 
 from __future__ import annotations
