@@ -129,7 +129,10 @@ class WholeBodyControllerNode(Node):
         self.qp_failures = 0
         self.zero_cycles = 0
         self.good_cycles = 0
+        self._create_interfaces()
 
+    def _create_interfaces(self) -> None:
+        """Publishers, subscriptions, services and timers (see the module docstring)."""
         self.cmd_pub = self.create_publisher(Twist, "/cmd_vel", 10)
         self.left_pub = self.create_publisher(
             Float64MultiArray, "left/forward_velocity_controller/commands", 10
