@@ -20,7 +20,7 @@ pick_python() {
 }
 
 stamp_of_inputs() {
-    cat setup.sh requirements.txt "${PACKAGES[@]/%//setup.cfg}" "${PACKAGES[@]/%//package.xml}" | sha256sum | cut -d' ' -f1
+    cat setup.sh requirements.txt requirements-colcon.txt "${PACKAGES[@]/%//setup.cfg}" "${PACKAGES[@]/%//package.xml}" | sha256sum | cut -d' ' -f1
 }
 
 STAMP_FILE=.venv/.phri-setup-stamp
@@ -35,8 +35,9 @@ if [ ! -x .venv/bin/python ]; then
     "$PY" -m venv .venv
 fi
 echo "setup.sh: installing dependencies (first run takes about a minute)"
-.venv/bin/python -m pip install --quiet --disable-pip-version-check --upgrade "pip>=24" "setuptools>=70" wheel
-.venv/bin/python -m pip install --quiet --disable-pip-version-check -r requirements.txt
+.venv/bin/python -m pip install --quiet --disable-pip-version-check --upgrade "pip>=24" "setuptools>=70,<80" wheel  # colcon-core needs setuptools < 80
+.venv/bin/python -m pip install --quiet --disable-pip-version-check -r requirements.txt \
+    -r requirements-colcon.txt
 editable=()
 for pkg in "${PACKAGES[@]}"; do editable+=(-e "./$pkg"); done
 PYTHONWARNINGS=ignore .venv/bin/python -m pip install --quiet --disable-pip-version-check --no-deps \

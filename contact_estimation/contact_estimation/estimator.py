@@ -82,11 +82,14 @@ class EstimatorConfig:
             ``[-limit, limit]`` on each axis.
         max_taxel_force: the skin's rated range [N]: a frame with any |force| above it is
             refused as corrupted (:data:`DEFAULT_MAX_TAXEL_FORCE`).
+        stuck_timeout: a touched patch whose forces repeat bit for bit for longer than this [s]
+            (by frame stamps) is stuck, and its frames are refused (:class:`StuckDetector`).
     """
 
     force_threshold: float = 0.05
     torque_limit: tuple[float, float, float] = PAPER_TORQUE_LIMIT
     max_taxel_force: float = DEFAULT_MAX_TAXEL_FORCE
+    stuck_timeout: float = 0.5
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.force_threshold) and self.force_threshold >= 0.0):
@@ -101,6 +104,9 @@ class EstimatorConfig:
                 f"torque_limit [N·m] refused value {self.torque_limit}: allowed 3 values in "
                 "[0, inf]"
             )
+        if not 0.0 < self.stuck_timeout < math.inf:  # also refuses NaN
+            raise ValueError(f"stuck_timeout [s] refused value {self.stuck_timeout}: allowed "
+                             "range (0, inf)")
         low, high = MAX_TAXEL_FORCE_RANGE
         if not low <= self.max_taxel_force <= high:  # also refuses NaN
             raise ValueError(
@@ -173,8 +179,8 @@ def _ones(n: int, dtype: np.dtype) -> FloatArray:
     return ones
 
 
-def check_forces(forces: FloatArray, max_force: float) -> None:
-    """Refuse NaN/Inf forces and forces beyond ``±max_force`` [N].
+def check_forces(forces: FloatArray, max_force: float) -> float:
+    """Refuse NaN/Inf forces and forces beyond ``±max_force`` [N]; return ‖f‖² [N²].
 
     Cheap test first: ``‖f‖² = fᵀf`` (one BLAS dot). Every |fᵢ| ≤ ‖f‖, so ‖f‖ ≤ ``max_force``
     proves every force finite and within the range; NaN/Inf or an overflow fail the test. Only
@@ -187,14 +193,14 @@ def check_forces(forces: FloatArray, max_force: float) -> None:
     with np.errstate(all="ignore"):
         norm2 = float(forces @ forces)
     if norm2 <= max_force * max_force:
-        return
+        return norm2
     n = forces.shape[0]
     nonfinite = int(np.count_nonzero(~np.isfinite(forces)))
     if nonfinite:
         raise InvalidTaxelData(f"{nonfinite} of {n} taxel forces are NaN or infinite")
     f_min, f_max = float(forces.min()), float(forces.max())
     if -max_force <= f_min and f_max <= max_force:
-        return
+        return norm2
     over = int(np.count_nonzero(np.abs(forces) > max_force))
     worst = f_max if abs(f_max) >= abs(f_min) else f_min
     raise InvalidTaxelData(
@@ -235,6 +241,42 @@ def _clamp(value: float, limit: float) -> float:
     return -limit if value < -limit else (limit if value > limit else value)
 
 
+class StuckDetector:
+    """A stuck skin: a touched patch (‖f‖ > 0) whose forces repeat bit for bit for longer than
+    ``timeout`` [s] of frame stamps. A real skin's ADC noise never repeats a loaded frame
+    exactly, so this is a dead board or driver replaying its last frame: a fault, not a licence
+    to push (design §8). Its frames are refused until they change; downstream the link's contact
+    state then goes stale and the controller stops.
+
+    Cheap on the hot path: ‖f‖², which the range check computes anyway, is the fingerprint; the
+    arrays are compared only when it repeats.
+    """
+
+    def __init__(self, timeout: float) -> None:
+        self.timeout_ns = int(timeout * 1e9)
+        self._fingerprint: dict[str, float] = {}
+        self._since: dict[str, int] = {}
+
+    def check(self, patch: str, norm2: float, forces: FloatArray, previous: FloatArray,
+              stamp_ns: int) -> None:
+        """Take ``patch``'s new frame (‖f‖² = ``norm2``) against its ``previous`` forces.
+
+        Raises:
+            InvalidTaxelData: the patch has been stuck for longer than the timeout.
+        """
+        if (norm2 == 0.0 or norm2 != self._fingerprint.get(patch)
+                or not np.array_equal(forces, previous)):
+            self._fingerprint[patch] = norm2
+            self._since[patch] = stamp_ns
+            return
+        stuck_for = stamp_ns - self._since[patch]
+        if stuck_for > self.timeout_ns:
+            raise InvalidTaxelData(
+                f"patch {patch!r} stuck: its loaded frame has repeated bit for bit for "
+                f"{stuck_for * 1e-9:.3f} s (stuck_timeout {self.timeout_ns * 1e-9:g} s); refused"
+            )
+
+
 class ContactEstimator:
     """Per-link contact estimation over a fixed set of skin patches.
 
@@ -261,6 +303,7 @@ class ContactEstimator:
         self._order = [p for patches in self.links.values() for p in patches]
         self._geometry: dict[str, tuple[FloatArray, FloatArray, FloatArray | None]] = {}
         self._stamps: dict[str, int] = dict.fromkeys(self.patch_links, 0)
+        self._stuck = StuckDetector(self.config.stuck_timeout)
         self._limit = tuple(float(x) for x in self.config.torque_limit)
         self._build()
 
@@ -349,7 +392,8 @@ class ContactEstimator:
             raise InvalidTaxelData(
                 f"patch {patch!r}: {forces.shape} forces for {c1 - c0} taxels"
             )
-        check_forces(forces, self.config.max_taxel_force)
+        norm2 = check_forces(forces, self.config.max_taxel_force)
+        self._stuck.check(patch, norm2, forces, self._forces[c0:c1], stamp_ns)
         self._forces[c0:c1] = forces
         self._stamps[patch] = stamp_ns
 
@@ -369,7 +413,7 @@ class ContactEstimator:
         """
         link = self._patch_link(patch)
         _check_shapes(taxels.positions, taxels.normals, taxels.forces, taxels.weights)
-        check_forces(taxels.forces, self.config.max_taxel_force)
+        norm2 = check_forces(taxels.forces, self.config.max_taxel_force)
         check_geometry_values(taxels.positions, taxels.normals, taxels.weights)
         known = self._geometry.get(patch)
         if (
@@ -379,6 +423,7 @@ class ContactEstimator:
         ):
             self.set_geometry(patch, taxels.positions, taxels.normals, taxels.weights)
         c0, c1 = self._columns[patch]
+        self._stuck.check(patch, norm2, taxels.forces, self._forces[c0:c1], taxels.stamp_ns)
         self._forces[c0:c1] = taxels.forces  # checked above, shape fixed by the geometry
         self._stamps[patch] = taxels.stamp_ns
         return self.estimate()[link]

@@ -82,41 +82,33 @@ def contact_markers(state: ContactState, scales: MarkerScales | None = None) -> 
 
 
 class MarkerThrottle:
-    """Decides, per link, whether a contact state's markers are published (pure).
+    """Limits marker arrays to ``rate_hz`` per link on the contact states' own clock.
 
-    rviz draws at display rate, while contact states come at the skin rate (500 Hz per link):
-    markers go out at most ``rate_hz`` times a second per link, except that a change of
-    ``in_contact`` (contact made, or lost: its markers are deleted) is always published at once.
-    ``rate_hz = 0``: with every contact state.
-
-    Args:
-        rate_hz: largest marker rate per link [Hz], ≥ 0.
+    Contact states come at the skin rate (500 Hz per patch, ≈ 550 Hz of marker arrays in the
+    simulation), far more than a viewer draws. A link's markers go out when its first state
+    arrives, when its contact starts or ends (so a released contact is deleted at once), and
+    otherwise at most once per 1/``rate_hz`` of state time (``stamp_ns``); 0 = every state.
     """
 
     def __init__(self, rate_hz: float) -> None:
-        self.rate_hz = rate_hz
-        self._last: dict[str, tuple[float, bool]] = {}
+        self.set_rate(rate_hz)
+        self._last: dict[str, tuple[int, bool]] = {}
 
-    @property
-    def rate_hz(self) -> float:
-        """The marker rate limit per link [Hz] (0 = none)."""
-        return self._rate_hz
+    def set_rate(self, rate_hz: float) -> None:
+        """Change the rate [Hz] (≥ 0; 0 = no throttling).
 
-    @rate_hz.setter
-    def rate_hz(self, value: float) -> None:
-        if not (value >= 0.0 and np.isfinite(value)):
-            raise ValueError(f"marker rate [Hz] refused value {value}: allowed [0, inf)")
-        self._rate_hz = float(value)
+        Raises:
+            ValueError: ``rate_hz`` is negative or not finite.
+        """
+        if not (np.isfinite(rate_hz) and rate_hz >= 0.0):
+            raise ValueError(f"marker_rate_hz must be finite and >= 0 Hz, got {rate_hz}")
+        self.period_ns = 0 if rate_hz == 0.0 else round(1e9 / rate_hz)
 
-    def due(self, link: str, in_contact: bool, now_s: float) -> bool:
-        """Whether to publish ``link``'s markers for a state at ``now_s`` [s, any clock]."""
-        last = self._last.get(link)
-        if (
-            last is None
-            or self._rate_hz == 0.0
-            or last[1] != in_contact
-            or now_s - last[0] >= 1.0 / self._rate_hz - 1e-9  # exact periods count
-        ):
-            self._last[link] = (now_s, in_contact)
-            return True
-        return False
+    def due(self, state: ContactState) -> bool:
+        """Whether ``state``'s markers should be published now (and remember it if so)."""
+        last = self._last.get(state.link)
+        if (last is not None and last[1] == state.in_contact
+                and 0 <= state.stamp_ns - last[0] < self.period_ns):
+            return False
+        self._last[state.link] = (state.stamp_ns, state.in_contact)
+        return True

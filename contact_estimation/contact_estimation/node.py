@@ -8,11 +8,12 @@ Thin wrapper around :class:`contact_estimation.estimator.ContactEstimator`. Inte
 * publishes ``contacts/<link>`` (sensor_msgs/PointCloud2, see phri_common.contact) once for
   every accepted frame of one of the link's patches;
 * publishes ``contacts/markers`` (visualization_msgs/MarkerArray) when ``publish_markers``,
-  per link at most ``marker_rate_hz`` times a second and whenever contact is made or lost;
+  per link at most ``marker_rate_hz`` (on state time) and whenever contact starts or ends;
 * publishes ``/diagnostics`` (diagnostic_msgs/DiagnosticArray) every ``diagnostics_period``.
 
 A refused frame (malformed message, NaN/Inf anywhere, a force beyond ``max_taxel_force``, an
-empty cloud, wrong frame_id, wrong size; checked on every frame) is counted, reported on
+empty cloud, wrong frame_id, wrong size, a stuck skin repeating its loaded frame for longer than
+``stuck_timeout``; checked on every frame) is counted, reported on
 diagnostics and logged (throttled); no contact state is published for it, the node stays up and
 keeps serving every other patch. Downstream treats the missing state as stale.
 """
@@ -22,7 +23,6 @@ from __future__ import annotations
 import math
 import sys
 import threading
-import time
 from collections.abc import Sequence
 from functools import partial
 from typing import Any
@@ -72,10 +72,12 @@ PARAMS: list[ParamSpec] = [
               "with any taxel |force| above it is refused as corrupted (the default skin "
               "saturates at ≈ 32 N)", unit="N", low=MAX_TAXEL_FORCE_RANGE[0],
               high=MAX_TAXEL_FORCE_RANGE[1]),
+    ParamSpec("stuck_timeout", 0.5, "a touched patch whose frame repeats bit for bit for longer "
+              "than this is stuck: its frames are refused", unit="s", low=0.01, high=60.0),
     ParamSpec("publish_markers", True, "publish rviz markers on contacts/markers"),
-    ParamSpec("marker_rate_hz", 30.0, "largest rate of the markers of each link (a contact "
-              "made or lost is always published at once); 0 = with every contact state",
-              unit="Hz", low=0.0, high=1000.0),
+    ParamSpec("marker_rate_hz", 30.0, "most marker arrays per second per link (state time; a "
+              "contact that starts or ends is always drawn); 0 = every frame", unit="Hz",
+              low=0.0, high=1000.0),
     ParamSpec("marker_force_scale", 0.01, "force arrow length per newton", unit="m/N",
               low=0.0, high=10.0),
     ParamSpec("marker_torque_scale", 0.1, "torque arrow length per N·m", unit="m/(N·m)",
@@ -99,6 +101,7 @@ def config_from_values(values: dict[str, ParamValue]) -> EstimatorConfig:
         force_threshold=float(values["force_threshold"]),
         torque_limit=(float(limit[0]), float(limit[1]), float(limit[2])),
         max_taxel_force=float(values["max_taxel_force"]),
+        stuck_timeout=float(values["stuck_timeout"]),
     )
 
 
@@ -172,10 +175,10 @@ class ContactEstimationNode(Node):
         with self._lock:
             self._estimator.reconfigure(config)
         self._scales = self._marker_scales(values)
-        self._marker_throttle.rate_hz = float(values["marker_rate_hz"])
         period = float(values["diagnostics_period"])
         if period != float(self._values["diagnostics_period"]):
             self._diag_timer.timer_period_ns = int(period * 1e9)
+        self._marker_throttle.set_rate(float(values["marker_rate_hz"]))
         self._values = values
 
     def _on_taxels(self, patch: str, msg: PointCloud2) -> None:
@@ -210,9 +213,7 @@ class ContactEstimationNode(Node):
                 self._refuse(patch, err)
                 return
             self._state_pubs[link].publish(contact_to_msg(state))
-            if self._values["publish_markers"] and self._marker_throttle.due(
-                link, state.in_contact, time.monotonic()
-            ):
+            if self._values["publish_markers"] and self._marker_throttle.due(state):
                 self._marker_pub.publish(
                     MarkerArray(markers=contact_markers(state, self._scales))
                 )

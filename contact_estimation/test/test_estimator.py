@@ -391,3 +391,21 @@ def test_forces_before_any_geometry_are_refused() -> None:
 def test_max_taxel_force_out_of_range_names_parameter_value_and_range(value: float) -> None:
     with pytest.raises(ValueError, match=r"max_taxel_force \[N\] refused value .*\[1, 1e\+06\]"):
         EstimatorConfig(max_taxel_force=value)
+
+
+def test_a_stuck_skin_is_refused_after_the_timeout_and_recovers_when_it_changes() -> None:
+    positions, normals = flat_grid()
+    est = ContactEstimator({"p": "l"}, EstimatorConfig(stuck_timeout=0.5))
+    pressed = np.zeros(len(positions))
+    pressed[:4] = 2.0
+    est.update("p", taxels(positions, normals, pressed, stamp_ns=0))
+    for k in range(1, 51):  # 0.01 s apart: identical for 0.50 s is still accepted
+        est.set_forces("p", pressed, k * 10_000_000)
+    with pytest.raises(InvalidTaxelData, match=r"stuck.*0\.51"):
+        est.set_forces("p", pressed, 51 * 10_000_000)
+    changed = pressed.copy()
+    changed[0] += 1e-6  # a real skin's noise: accepted again at once
+    est.set_forces("p", changed, 52 * 10_000_000)
+    untouched = np.zeros(len(positions))  # an idle skin reading exact zeros is not stuck
+    for k in range(53, 200):
+        est.set_forces("p", untouched, k * 10_000_000)

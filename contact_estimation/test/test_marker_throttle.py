@@ -1,45 +1,40 @@
-"""MarkerThrottle: markers per link at most at the display rate, contact changes at once."""
+"""Marker throttling on the contact states' clock (contact_estimation.markers.MarkerThrottle)."""
 
 from __future__ import annotations
 
-import itertools
+import math
 
 import pytest
 
 from contact_estimation.markers import MarkerThrottle
+from phri_common.contact import ContactState
 
 
-def published(throttle: MarkerThrottle, link: str, contact: list[bool], rate: float) -> list[int]:
-    """Indices of the states (one every 1/rate s) whose markers go out."""
-    return [k for k, c in enumerate(contact) if throttle.due(link, c, k / rate)]
+def _state(t_ms: float, touching: bool = True, link: str = "l") -> ContactState:
+    state = ContactState.no_contact(link, round(t_ms * 1e6))
+    return ContactState(link=state.link, stamp_ns=state.stamp_ns, in_contact=touching)
 
 
-def test_steady_contact_at_500_hz_gives_at_most_30_marker_arrays_a_second_per_link() -> None:
-    throttle = MarkerThrottle(30.0)
-    for link in ("a", "b"):
-        out = published(throttle, link, [True] * 1000, 500.0)  # 2 s
-        # The first state whose age reaches 1/30 s = 16.7 states is every 17th: 59 in 1000.
-        assert len(out) == 59
-        gaps = {b - a for a, b in itertools.pairwise(out)}
-        assert gaps == {17}
+def test_rate_limits_each_link_on_state_time() -> None:
+    gate = MarkerThrottle(10.0)  # one array per 100 ms
+    kept = [t for t in range(0, 1000, 2) if gate.due(_state(t))]
+    assert kept == list(range(0, 1000, 100))
+    other = MarkerThrottle(10.0)
+    assert other.due(_state(0, link="a")) and other.due(_state(1, link="b"))
+    assert not other.due(_state(2, link="a"))
 
 
-def test_contact_made_or_lost_is_published_at_once() -> None:
-    throttle = MarkerThrottle(30.0)
-    contact = [True] * 5 + [False] * 5 + [True] * 5
-    out = published(throttle, "a", contact, 500.0)
-    assert out == [0, 5, 10]
+def test_contact_start_and_end_always_pass() -> None:
+    gate = MarkerThrottle(1.0)
+    assert gate.due(_state(0, touching=False))
+    assert gate.due(_state(10, touching=True))
+    assert not gate.due(_state(20, touching=True))
+    assert gate.due(_state(30, touching=False))
 
 
-def test_rate_zero_publishes_every_state_and_the_rate_can_change() -> None:
-    throttle = MarkerThrottle(0.0)
-    assert published(throttle, "a", [True] * 50, 500.0) == list(range(50))
-    throttle.rate_hz = 100.0
-    assert throttle.due("a", True, 10.0) and not throttle.due("a", True, 10.004)
-    assert throttle.due("a", True, 10.01)
-
-
-@pytest.mark.parametrize("rate", [-1.0, float("nan"), float("inf")])
-def test_bad_rate_is_refused_naming_the_value(rate: float) -> None:
-    with pytest.raises(ValueError, match="marker rate"):
-        MarkerThrottle(rate)
+def test_zero_rate_passes_everything_and_bad_rates_are_refused() -> None:
+    gate = MarkerThrottle(0.0)
+    assert all(gate.due(_state(t)) for t in range(10))
+    for bad in (-1.0, math.nan, math.inf):
+        with pytest.raises(ValueError, match="marker_rate_hz"):
+            MarkerThrottle(bad)

@@ -162,3 +162,20 @@ def test_max_taxel_force_and_diagnostics_period_take_effect_at_run_time(harness)
     assert len(received["forearm_link"]) == 1
     assert node.set_parameters([Parameter("diagnostics_period", value=0.25)])[0].successful
     assert node._diag_timer.timer_period_ns == 250_000_000
+
+
+def test_markers_are_throttled_to_marker_rate_hz(harness) -> None:
+    """100 frames at 500 Hz (0.2 s of stamps) give 100 contact states but, at 30 Hz, only the
+    markers of the first frame and one per 1/30 s after it; a released contact is drawn
+    (deleted) at once."""
+    _, pubs, received, markers, executor = harness
+    encoder = TaxelCloudEncoder(POSITIONS, NORMALS, "forearm_link")
+    for i in range(100):
+        pubs["fore"].publish(encoder.encode(FORCES, 1_000_000_000 + i * 2_000_000))
+        assert spin_until(executor, lambda n=i + 1: len(received["forearm_link"]) >= n, 5.0)
+    spin_until(executor, lambda: False, timeout_s=0.3)
+    drawn = len(markers)
+    assert 6 <= drawn <= 8  # 0.198 s / (1/30 s) = 5.94 periods → 6 (+ the first)
+    pubs["fore"].publish(encoder.encode(np.zeros(3), 1_000_000_000 + 100 * 2_000_000))
+    assert spin_until(executor, lambda: len(markers) == drawn + 1, timeout_s=5.0)
+    assert all(m.action == m.DELETE for m in markers[-1].markers)

@@ -2,12 +2,19 @@
 whole-body controller, the phri_hardware UR arm bridges (namespaces left/right) and base guard,
 robot_state_publisher, and optionally rviz.
 
-    ros2 launch phri_bringup real.launch.py [skin_left_port:=/dev/ttyACM0]
-        [skin_right_port:=/dev/ttyACM1] [layout_dir:=/path/to/layouts] [rviz:=true]
+    ros2 launch phri_bringup real.launch.py [hardware_config:=DIR]
+        [skin_left_port:=PORT] [skin_right_port:=PORT] [layout_dir:=DIR]
+        [base_cmd_topic:=/base_driver/cmd_vel] [rviz:=true]
 
-The nodes come from ``phri_bringup.graph.real_graph`` (the one description of the graph);
-parameters from ``config/real.yaml`` (docs/bringup.md). Layout files: ``phri layouts DIR``
-writes nominal ones; replace them with the calibrated files of your skin.
+The nodes come from ``phri_bringup.graph.real_graph`` (the one description of the graph).
+Parameters: phri_hardware's ``ur_arms.yaml``, ``base_guard.yaml`` and ``skin_real.yaml`` (from
+its share directory, or from ``hardware_config:=DIR`` holding your edited copies), then
+``config/real.yaml`` (docs/bringup.md). The skin ports and layouts come from ``skin_real.yaml``
+unless given here; ``layout_dir`` holds ``<patch>.yaml`` (``phri layouts DIR`` writes nominal
+ones). The base guard's ``base/cmd_vel`` is remapped to ``base_cmd_topic``.
+
+Nothing starts while a value is still marked PLACEHOLDER in those files, a layout file is
+missing or an executable is not installed: the error names the file and line to edit.
 """
 
 from launch import LaunchDescription
@@ -15,29 +22,46 @@ from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
-from phri_bringup.graph import launch_node_kwargs, real_graph, robot_description_urdf
+from phri_bringup.graph import (
+    DEFAULT_BASE_COMMAND_TOPIC,
+    launch_node_kwargs,
+    real_graph,
+    robot_description_urdf,
+)
+from phri_bringup.preflight import ament_executable_exists, launch_problems, preflight_action
 
 
 def _nodes(context):
-    ports = {
-        "skin_driver_left": LaunchConfiguration("skin_left_port").perform(context),
-        "skin_driver_right": LaunchConfiguration("skin_right_port").perform(context),
-    }
-    layout_dir = LaunchConfiguration("layout_dir").perform(context)
-    rviz = LaunchConfiguration("rviz").perform(context).lower() in ("true", "1", "yes")
+    def arg(name):
+        return LaunchConfiguration(name).perform(context)
+
+    ports = {"skin_driver_left": arg("skin_left_port"),
+             "skin_driver_right": arg("skin_right_port")}
+    graph = real_graph(ports, arg("layout_dir"), arg("rviz").lower() in ("true", "1", "yes"),
+                       arg("hardware_config"), arg("base_cmd_topic"))
     urdf = robot_description_urdf()
-    return [Node(**launch_node_kwargs(spec, urdf))
-            for spec in real_graph(ports, layout_dir, rviz)]
+    check = preflight_action("real.launch.py",
+                             lambda: launch_problems(graph, ament_executable_exists, real=True))
+    return [check, *(Node(**launch_node_kwargs(spec, urdf)) for spec in graph)]
 
 
 def generate_launch_description():
     return LaunchDescription([
-        DeclareLaunchArgument("skin_left_port", default_value="/dev/ttyACM0",
-                              description="serial port of the left arm's skin boards"),
-        DeclareLaunchArgument("skin_right_port", default_value="/dev/ttyACM1",
-                              description="serial port of the right arm's skin boards"),
-        DeclareLaunchArgument("layout_dir", default_value="config/skin",
-                              description="directory of <patch>.yaml skin layout files"),
+        DeclareLaunchArgument("hardware_config", default_value="",
+                              description="directory with edited copies of phri_hardware's "
+                                          "ur_arms.yaml, base_guard.yaml, skin_real.yaml "
+                                          "(default: phri_hardware's share/config)"),
+        DeclareLaunchArgument("skin_left_port", default_value="",
+                              description="serial port of the left arm's skin boards "
+                                          "(default: skin_real.yaml)"),
+        DeclareLaunchArgument("skin_right_port", default_value="",
+                              description="serial port of the right arm's skin boards "
+                                          "(default: skin_real.yaml)"),
+        DeclareLaunchArgument("layout_dir", default_value="",
+                              description="directory of <patch>.yaml skin layout files "
+                                          "(default: skin_real.yaml's layout_files)"),
+        DeclareLaunchArgument("base_cmd_topic", default_value=DEFAULT_BASE_COMMAND_TOPIC,
+                              description="the base driver's twist input (base_guard output)"),
         DeclareLaunchArgument("rviz", default_value="false", description="start rviz2"),
         OpaqueFunction(function=_nodes),
     ])

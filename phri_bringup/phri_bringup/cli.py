@@ -5,6 +5,7 @@
     phri sim --scenario waltz --out runs/waltz     # all of it (recording, plots, video, metrics)
     phri sim --scenario centring --short --no-video
     phri sim --scenario waltz --foxglove          # live view on ws://localhost:8765
+    phri sim --scenario waltz --fault skin_blind --fault-time 5   # rehearse a sensor fault
     phri plot runs/waltz                          # panels again from the recording
     phri video runs/waltz                         # video again from the recording
     phri params --check | --write                 # parameter files vs the paper's values
@@ -27,6 +28,17 @@ from pathlib import Path
 from typing import Any
 
 SCENARIO_CHOICES = ("centring", "sliding", "wholebody", "waltz")
+FAULT_CHOICES = ("skin_blind", "skin_stuck", "force_spike", "joint_jump")
+"""phri_sim.faults.FAULT_KINDS (kept here so ``phri --help`` does not import the simulator;
+a test checks they agree)."""
+FAULT_HELP = (
+    "inject a sensor fault where a real one would enter (the simulated skin / joint-state "
+    "publishing; the controller is not told): skin_blind = every taxel reads 0 N from the fault "
+    "time on; skin_stuck = taxels freeze at their last values; force_spike = the most loaded "
+    "taxel reads 3e38 N for one frame; joint_jump = the left elbow reads 10 rad in one joint "
+    "state. metrics.json → 'fault' reports what the robot did after it (peak forces against "
+    "ISO/TS 15066, travel, time to stop / recover)"
+)
 
 
 def _log(text: str) -> None:
@@ -46,6 +58,9 @@ def _parser() -> argparse.ArgumentParser:
     sim.add_argument("--duration", type=float, default=None, help="simulated length [s]")
     sim.add_argument("--short", action="store_true", help="the shortened CI length")
     sim.add_argument("--seed", type=int, default=0, help="skin noise seed (same seed → same run)")
+    sim.add_argument("--fault", choices=FAULT_CHOICES, default=None, help=FAULT_HELP)
+    sim.add_argument("--fault-time", type=float, default=5.0, metavar="T",
+                     help="sim time [s] the fault starts (default 5)")
     sim.add_argument("--params", default=None,
                      help="parameter file instead of config/<scenario>.yaml")
     sim.add_argument("--record", default=None, metavar="DIR",
@@ -148,7 +163,8 @@ def cmd_sim(args: argparse.Namespace) -> int:
     try:
         result = run_session(name, sinks=sinks, params_file=args.params, duration=args.duration,
                              short=args.short, seed=args.seed, pace=pace,
-                             progress=_progress_printer(start), stop=stop)
+                             progress=_progress_printer(start), stop=stop,
+                             fault=args.fault or "", fault_time=args.fault_time)
     except Exception as err:
         _log(f"run failed: {type(err).__name__}: {err}")
         return 2 if isinstance(err, ValueError) else 1
@@ -164,6 +180,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
         _log("stopped before the end: recording closed, no metrics, plots or video")
         return 130
     metrics = dict(result.metrics)
+    _report_safety(metrics)
     metrics["zero_velocity_at_exit"] = result.zero_at_exit
     metrics["seed"] = args.seed
     summary: dict[str, Any] = {"run_wall_time": run_wall}
@@ -188,6 +205,26 @@ def cmd_sim(args: argparse.Namespace) -> int:
     total = time.perf_counter() - start
     _log(f"metrics: {out / 'metrics.json'}; total wall time {total:.0f} s")
     return 0
+
+
+def _report_safety(metrics: dict[str, Any]) -> None:
+    """Log the ISO/TS 15066 verdict and, after a fault, what the robot did."""
+    iso = metrics.get("iso15066")
+    if iso is not None:
+        worst = max(iso["person"].items(), key=lambda kv: kv[1]["peak_force"], default=None)
+        text = "within" if iso["ok"] else "EXCEEDED on " + ", ".join(
+            name for name, row in {**iso["person"], **iso["robot_links"]}.items()
+            if not row["ok"])
+        if worst is not None:
+            text += (f"; largest on the person: {worst[0]} {worst[1]['peak_force']:.1f} N peak, "
+                     f"{worst[1]['sustained_force']:.1f} N held 0.5 s")
+        _log(f"ISO/TS 15066 body-region limits: {text}")
+    fault = metrics.get("fault")
+    if fault is not None:
+        _log(f"fault {fault['kind']} at {fault['fault_time']:g} s: base travel "
+             f"{fault['base_travel']:.3f} m, max joint excursion "
+             f"{fault['max_joint_excursion']:.3f} rad, time to stop {fault['time_to_stop']}, "
+             f"time to recover {fault['time_to_recover']}")
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
@@ -242,7 +279,7 @@ def cmd_graph(args: argparse.Namespace) -> int:
     nodes = sim_graph(args.scenario) if args.which == "sim" else real_graph()
     for n in nodes:
         ns = f"/{n.namespace}" if n.namespace else ""
-        files = ", ".join(f"config/{f}.yaml" for f in n.parameter_files) or "-"
+        files = ", ".join(f if "/" in f else f"config/{f}.yaml" for f in n.parameter_files) or "-"
         print(f"{ns}/{n.name}: {n.package}/{n.executable}  params: {files} {n.parameters or ''}"
               f"{'  [in-process in phri sim]' if n.in_process else ''}")
     return 0

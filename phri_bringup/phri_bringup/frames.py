@@ -1,8 +1,10 @@
 """Link frames of the robot from joint states and odometry (pure: MuJoCo, no rclpy).
 
 The recorder writes them as ``/tf`` and the Foxglove bridge streams them, so a recording or a live
-view shows the robot without a ROS robot state publisher. The transforms come from the same
-MuJoCo model the simulator and the controller use (phri_description, one description).
+view shows the robot without a ROS robot state publisher. The tree is exactly the URDF's
+(phri_description.urdf_writer.urdf_transforms: the same parents, helper ``*_motion`` links and
+base joints ``odom → base_x_link → base_y_link → base_link`` robot_state_publisher publishes), so
+a recording replayed beside robot_state_publisher gives no link two parents.
 """
 
 from __future__ import annotations
@@ -59,18 +61,16 @@ class RobotFrames:
                     self.data.qpos[self.joint_qpos[name]] = float(value)
 
     def transforms(self) -> list[Transform]:
-        """Every body in its parent body's frame at the current state."""
+        """Every URDF joint's child in its parent frame at the current state (parents first)."""
+        from phri_description.urdf_writer import urdf_transforms
+
         mujoco.mj_kinematics(self.model, self.data)
+        positions = {name: float(self.data.qpos[adr]) for name, adr in self.joint_qpos.items()}
         out = []
-        xpos, xmat = self.data.xpos, self.data.xmat.reshape(-1, 3, 3)
         quat = np.zeros(4)
-        for b in range(1, self.model.nbody):
-            p = self.parents[b]
-            rot = xmat[p].T @ xmat[b]
-            pos = xmat[p].T @ (xpos[b] - xpos[p])
-            mujoco.mju_mat2Quat(quat, rot.reshape(9))
-            out.append(Transform(self.names[p], self.names[b],
-                                 (float(pos[0]), float(pos[1]), float(pos[2])),
+        for parent, child, rot, pos in urdf_transforms(positions):
+            mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rot).reshape(9))
+            out.append(Transform(parent, child, (float(pos[0]), float(pos[1]), float(pos[2])),
                                  (float(quat[0]), float(quat[1]), float(quat[2]),
                                   float(quat[3]))))
         return out

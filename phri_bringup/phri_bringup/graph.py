@@ -74,7 +74,8 @@ class NodeSpec:
         package, executable: what ``ros2 run`` starts.
         namespace: '' or e.g. ``left``.
         parameter_files: ``config/`` file stems whose ``<name>:`` section applies (the launch
-            file passes the files; the runner loads the same sections).
+            file passes the files; the runner loads the same sections), or another package's
+            file as ``package/path.yaml``, or an absolute path (see :func:`config_file`).
         parameters: inline parameters (launch arguments resolved by the caller).
         remappings: (from, to) topic pairs.
         in_process: the lock-step runner also creates this node in one process.
@@ -118,25 +119,42 @@ def scenario_file(name: str) -> str:
     return SCENARIO_FILES[canonical_scenario(name)]
 
 
-def share_dir() -> Path:
-    """Directory holding ``config/``, ``launch/`` and ``rviz/``: the source tree for an editable
-    install, else ``<prefix>/share/phri_bringup`` (pip data files or a colcon install)."""
-    source = Path(__file__).resolve().parent.parent
-    if (source / "config").is_dir():
-        return source
-    candidates = [Path(sys.prefix) / "share" / PACKAGE]
+def share_dir(package: str = PACKAGE) -> Path:
+    """Directory holding a package's ``config/`` (and for phri_bringup ``launch/``, ``rviz/``):
+    the source tree for an editable install, else ``<prefix>/share/<package>`` (pip data files or
+    a colcon install, found through ``AMENT_PREFIX_PATH``)."""
+    import importlib.util
+
+    if package == PACKAGE:
+        modules = [Path(__file__).resolve().parent]
+    else:
+        spec = importlib.util.find_spec(package)
+        modules = [Path(p).resolve() for p in (spec.submodule_search_locations or [])] \
+            if spec is not None else []
+    # A source tree is <package>/package.xml beside <package>/<package>/ (the module); when the
+    # repository root is on sys.path the outer directory itself is found as a namespace package.
+    for source in (d for m in modules for d in (m.parent, m)):
+        if (source / "config").is_dir() and (source / "package.xml").is_file():
+            return source
+    candidates = [Path(sys.prefix) / "share" / package]
     for prefix in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep):
         if prefix:
-            candidates.append(Path(prefix) / "share" / PACKAGE)
+            candidates.append(Path(prefix) / "share" / package)
     for candidate in candidates:
         if (candidate / "config").is_dir():
             return candidate
-    raise FileNotFoundError(f"{PACKAGE}: no config directory found (looked in {source} and "
-                            f"{', '.join(str(c) for c in candidates)})")
+    raise FileNotFoundError(f"{package}: no config directory found (looked in "
+                            f"{', '.join(str(c) for c in [*modules, *candidates])})")
 
 
 def config_file(stem: str) -> Path:
-    """Path of ``config/<stem>.yaml``."""
+    """Path of ``config/<stem>.yaml`` (phri_bringup), or of ``<package>/<path>`` in another
+    package's share directory when ``stem`` has the form ``package/relative/path.yaml``."""
+    if Path(stem).is_absolute():
+        return Path(stem)
+    if "/" in stem:
+        package, _, relative = stem.partition("/")
+        return share_dir(package) / relative
     return share_dir() / "config" / f"{stem}.yaml"
 
 
@@ -159,39 +177,66 @@ def sim_graph(scenario: str, seed: int = 0, rviz: bool = False) -> list[NodeSpec
                  description="TF of every link from /joint_states (URDF of phri_description)"),
     ]
     if rviz:
-        nodes.append(rviz_node())
+        nodes.append(rviz_node(sim_time=True))
     return nodes
 
 
-def rviz_node() -> NodeSpec:
-    """rviz2 with ``rviz/phri.rviz``."""
-    return NodeSpec("rviz2", "rviz2", "rviz2", parameters={"config": "rviz/phri.rviz"},
+def rviz_node(sim_time: bool = False) -> NodeSpec:
+    """rviz2 with ``rviz/phri.rviz`` (on the simulation's clock when ``sim_time``)."""
+    return NodeSpec("rviz2", "rviz2", "rviz2",
+                    parameters={"config": "rviz/phri.rviz", "use_sim_time": sim_time},
                     description="robot, taxel clouds and contacts")
 
 
-REAL_SKIN_PORTS: dict[str, tuple[str, tuple[str, ...]]] = {
-    f"skin_driver_{side}": (port, tuple(p for p in SKIN_PATCHES if p.startswith(f"{side}_")))
-    for side, port in zip(SIDES, ("/dev/ttyACM0", "/dev/ttyACM1"), strict=True)
+REAL_SKIN_PORTS: dict[str, tuple[str, ...]] = {
+    f"skin_driver_{side}": tuple(p for p in SKIN_PATCHES if p.startswith(f"{side}_"))
+    for side in SIDES
 }
-"""Real skin wiring: driver node → (default port, patches on that port in board-id order)."""
+"""Real skin wiring: driver node → patches on its serial port, in board-id order."""
+
+HARDWARE_CONFIG: dict[str, str] = {
+    "skin_driver": "skin_real.yaml",
+    "ur_arm_bridge": "ur_arms.yaml",
+    "base_guard": "base_guard.yaml",
+}
+"""phri_hardware parameter file of each real-robot executable family (docs/hardware.md): the
+site-specific values (ports, layouts, robot addresses, the base driver's message type)."""
+
+BASE_GUARD_OUTPUT = "base/cmd_vel"
+"""base_guard_node's output topic, remapped to the base driver's twist input."""
+DEFAULT_BASE_COMMAND_TOPIC = "/base_driver/cmd_vel"
+"""Default of real.launch.py's ``base_cmd_topic``: where the limited base twist goes."""
 
 
-def real_graph(ports: dict[str, str] | None = None, layout_dir: str = "config/skin",
-               rviz: bool = False) -> list[NodeSpec]:
-    """Nodes on the real robot: skin drivers on their serial ports, estimation, controller, the
-    phri_hardware arm bridges (namespaces ``left``/``right``) and base guard, and the robot
-    state publisher. ``ports`` overrides the default port of a skin driver node."""
+def hardware_config(name: str, directory: str = "") -> str:
+    """Parameter file entry of a phri_hardware config file: ``directory/name`` when a directory
+    with edited copies is given, else the file in phri_hardware's share (see config_file)."""
+    return str(Path(directory).resolve() / name) if directory else f"phri_hardware/config/{name}"
+
+
+def real_graph(ports: dict[str, str] | None = None, layout_dir: str = "",
+               rviz: bool = False, hardware_dir: str = "",
+               base_cmd_topic: str = DEFAULT_BASE_COMMAND_TOPIC) -> list[NodeSpec]:
+    """Nodes on the real robot: skin drivers, estimation, controller, the phri_hardware arm
+    bridges (namespaces ``left``/``right``) and base guard, and the robot state publisher.
+
+    Parameters come from phri_hardware's files (``hardware_dir`` replaces its share directory),
+    then ``config/real.yaml``; ``ports`` (driver node → port) and ``layout_dir`` (``<patch>.yaml``
+    files, made absolute) override the skin file's values when given; the base guard's output is
+    remapped to ``base_cmd_topic``."""
     ports = ports or {}
+    skin_file = hardware_config(HARDWARE_CONFIG["skin_driver"], hardware_dir)
     nodes = []
-    for name, (port, patches) in REAL_SKIN_PORTS.items():
+    for name, patches in REAL_SKIN_PORTS.items():
+        overrides: dict[str, Any] = {}
+        if ports.get(name):
+            overrides["port"] = ports[name]
+        if layout_dir:
+            root = Path(layout_dir).resolve()
+            overrides["layout_files"] = [str(root / f"{p}.yaml") for p in patches]
         nodes.append(NodeSpec(
-            name, "skin_driver", "skin_driver_node", parameter_files=("real",),
-            parameters={
-                "port": ports.get(name, port),
-                "board_ids": list(range(len(patches))),
-                "layout_files": [f"{layout_dir}/{p}.yaml" for p in patches],
-            },
-            description=f"skin boards of {', '.join(patches)} over a serial port",
+            name, "skin_driver", "skin_driver_node", parameter_files=(skin_file, "real"),
+            parameters=overrides, description=f"skin boards of {', '.join(patches)}",
         ))
     nodes += [
         NodeSpec(ESTIMATION, "contact_estimation", "contact_estimation_node",
@@ -199,10 +244,14 @@ def real_graph(ports: dict[str, str] | None = None, layout_dir: str = "config/sk
         NodeSpec(CONTROLLER, "wholebody_controller", "wholebody_controller_node",
                  parameter_files=("real",), description="whole-body admittance QP"),
         *(NodeSpec("ur_arm_bridge", "phri_hardware", "ur_arm_bridge_node", namespace=arm,
+                   parameter_files=(hardware_config(HARDWARE_CONFIG["ur_arm_bridge"],
+                                                    hardware_dir),),
                    description=f"{arm} UR16e: forward_velocity_controller/commands → RTDE "
                                "speedJ, joint states")
           for arm in ARMS),
         NodeSpec("base_guard", "phri_hardware", "base_guard_node",
+                 parameter_files=(hardware_config(HARDWARE_CONFIG["base_guard"], hardware_dir),),
+                 remappings=((BASE_GUARD_OUTPUT, base_cmd_topic),),
                  description="/cmd_vel watchdog and limits in front of the base driver"),
         NodeSpec(ROBOT_STATE_PUBLISHER, "robot_state_publisher", "robot_state_publisher",
                  parameters={"robot_description": "<URDF>"}, description="TF of every link"),
@@ -239,6 +288,12 @@ TF_TOPIC = TopicSpec("/tf", "tf2_msgs/msg/TFMessage")
 shows the robot in Foxglove / Lichtblick without a robot state publisher."""
 
 
+ROBOT_DESCRIPTION_TOPIC = TopicSpec("/robot_description", "std_msgs/msg/String")
+"""The URDF, latched (transient local); not recorded. robot_state_publisher publishes it on a
+ROS install; in ``phri sim`` (no robot_state_publisher) the observer node does, so rviz and
+Foxglove find it."""
+
+
 def robot_description_urdf() -> str:
     """The robot's URDF (phri_description's one description), for robot_state_publisher/rviz."""
     from phri_description.urdf_writer import urdf_string
@@ -257,10 +312,9 @@ def launch_node_kwargs(spec: NodeSpec, urdf: str = "") -> dict[str, Any]:
     }
     if spec.namespace:
         kwargs["namespace"] = spec.namespace
-    if spec.package == "rviz2":
-        kwargs["arguments"] = ["-d", str(share_dir() / str(spec.parameters["config"]))]
-        return kwargs
     inline = dict(spec.parameters)
+    if spec.package == "rviz2":
+        kwargs["arguments"] = ["-d", str(share_dir() / str(inline.pop("config")))]
     if inline.get("robot_description") == "<URDF>":
         inline["robot_description"] = urdf
     kwargs["parameters"] = [str(config_file(f)) for f in spec.parameter_files] + (

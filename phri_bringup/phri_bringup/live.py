@@ -5,7 +5,7 @@
 
 | channel | schema | content |
 |---|---|---|
-| ``/tf`` | FrameTransforms | every link frame (/joint_states, /odom → MuJoCo kinematics) |
+| ``/tf`` | FrameTransforms | every link frame, the URDF's tree (/joint_states, /odom) |
 | ``/robot`` | SceneUpdate | the robot's primitives (phri_description geoms), frame-locked |
 | ``/skin/<patch>`` | PointCloud | taxels and their forces (colour by ``force``), link frames |
 | ``/contacts`` | SceneUpdate | per touched link: contact centre (sphere), force (arrow, the push) |
@@ -13,6 +13,9 @@
 
 Open Foxglove (app or https://app.foxglove.dev) or Lichtblick → *Open connection* → *Foxglove
 WebSocket* → ``ws://localhost:8765``, add a 3D panel and set its display frame to ``odom``.
+Clients offering either subprotocol, ``foxglove.sdk.v1`` (current Foxglove) or
+``foxglove.websocket.v1`` (Lichtblick, older Foxglove builds), are served
+(:mod:`phri_bringup.ws_relay`).
 Streams are throttled to ``rate_hz`` (sim time) per channel.
 """
 
@@ -71,11 +74,16 @@ class FoxgloveSink:
             SceneUpdateChannel,
         )
 
+        from phri_bringup.ws_relay import SubprotocolRelay
+
         self.fg = foxglove
         self.context = foxglove.Context()
-        self.server = foxglove.start_server(name="phri", host=host, port=port,
+        # The SDK server listens on a free loopback port; clients connect through the relay,
+        # which also accepts the older subprotocol name (phri_bringup.ws_relay).
+        self.server = foxglove.start_server(name="phri", host="127.0.0.1", port=0,
                                             context=self.context)
-        self.port = int(self.server.port)
+        self.relay = SubprotocolRelay(int(self.server.port), host=host, port=port)
+        self.port = self.relay.port
         ctx = self.context
         self.tf = FrameTransformsChannel("/tf", context=ctx)
         self.robot = SceneUpdateChannel("/robot", context=ctx)
@@ -244,4 +252,5 @@ class FoxgloveSink:
         """Stop the server (idempotent)."""
         if not self.closed:
             self.closed = True
+            self.relay.close()
             self.server.stop()

@@ -16,13 +16,13 @@ from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 from rclpy.context import Context
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
+from std_msgs.msg import Float64MultiArray, String
 
 from phri_bringup.frames import RobotFrames
-from phri_bringup.graph import ARMS, SIM_TOPICS, TF_TOPIC, TopicSpec
+from phri_bringup.graph import ARMS, ROBOT_DESCRIPTION_TOPIC, SIM_TOPICS, TF_TOPIC, TopicSpec
 from phri_bringup.recording import McapRecording, encode, ros_type, stamp_ns_of, tf_message
 from phri_common.planar import yaw_from_quaternion
 
@@ -101,12 +101,20 @@ class RecordingSink:
 
 class ObserverNode(Node):
     """Subscribes ``topics`` raw and hands each message to every sink with its time [ns] (the
-    header stamp where the message has one, else the newest time seen)."""
+    header stamp where the message has one, else the newest time seen); with
+    ``robot_description`` it also publishes the URDF on /robot_description (latched), standing in
+    for robot_state_publisher in ``phri sim``."""
 
     def __init__(self, context: Context, sinks: Sequence[Sink], *,
                  topics: Sequence[TopicSpec] = SIM_TOPICS, pace: float | None = None,
-                 name: str = "phri_observer") -> None:
+                 name: str = "phri_observer", robot_description: str | None = None) -> None:
         super().__init__(name, context=context)
+        if robot_description is not None:  # latched, as robot_state_publisher publishes it
+            latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                                 durability=DurabilityPolicy.TRANSIENT_LOCAL)
+            self.description_pub = self.create_publisher(
+                String, ROBOT_DESCRIPTION_TOPIC.name, latched)
+            self.description_pub.publish(String(data=robot_description))
         self.sinks = list(sinks)
         self.now_ns = 0
         self.pace = pace

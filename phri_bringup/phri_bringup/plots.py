@@ -33,6 +33,7 @@ from phri_bringup.graph import ARMS, CONTROLLER, SKIN_LINKS
 from phri_bringup.recording import find_recording, ros_type
 from phri_common import paper
 from phri_common.planar import yaw_from_quaternion
+from phri_description.description import BASE_JOINTS
 from phri_sim.scenarios import WALTZ_LINK
 
 FloatArray = NDArray[np.float64]
@@ -137,9 +138,10 @@ def _add_sample(topic: str, msg: Any, t: float, rows: Rows, data: RunData) -> No
     elif topic == "/sim/person/poses":
         if msg.poses:
             rows["torso"].append((t, [msg.poses[0].position.x, msg.poses[0].position.y]))
-    elif topic == "/joint_states":
-        data.joint_names = list(msg.name)
-        rows["qd"].append((t, list(msg.velocity)))
+    elif topic == "/joint_states":  # the arm joints (the base is in /odom)
+        arm = [i for i, name in enumerate(msg.name) if name not in BASE_JOINTS]
+        data.joint_names = [msg.name[i] for i in arm]
+        rows["qd"].append((t, [msg.velocity[i] for i in arm]))
     elif topic == "/cmd_vel":
         rows["cmd_vel"].append((t, [msg.linear.x, msg.linear.y, msg.angular.z]))
     elif topic == "/odom":

@@ -25,7 +25,14 @@ from rclpy.context import Context
 from rclpy.signals import SignalHandlerOptions
 
 import phri_bringup.params as param_files
-from phri_bringup.graph import BRIDGE, CONTROLLER, ESTIMATION, canonical_scenario, config_file
+from phri_bringup.graph import (
+    BRIDGE,
+    CONTROLLER,
+    ESTIMATION,
+    canonical_scenario,
+    config_file,
+    robot_description_urdf,
+)
 from phri_bringup.graph import scenario_file as scenario_file_stem
 from phri_bringup.observer import ObserverNode, Sink
 
@@ -102,6 +109,8 @@ def run_session(
     stop: StopFlag | None = None,
     context: Context | None = None,
     inspect: Callable[[Any], None] | None = None,
+    fault: str = "",
+    fault_time: float = 5.0,
 ) -> SessionResult:
     """Run ``scenario`` (any accepted spelling) lock-step through the real nodes.
 
@@ -115,6 +124,8 @@ def run_session(
             clean shutdown) and ``interrupted`` is True.
         context: an initialised rclpy context to use (tests); else one is made and shut down.
         inspect: called with the :class:`~phri_sim.runner.ScenarioRun` before it runs (tests).
+        fault, fault_time: sensor fault to inject and its start [s] (:mod:`phri_sim.faults`;
+            '' = none).
     """
     from phri_sim.runner import ScenarioRun
 
@@ -132,7 +143,7 @@ def run_session(
     observer: list[ObserverNode] = []
 
     def make_observer(ctx: Context) -> ObserverNode:
-        node = ObserverNode(ctx, sinks, pace=pace)
+        node = ObserverNode(ctx, sinks, pace=pace, robot_description=robot_description_urdf())
         observer.append(node)
         return node
 
@@ -149,7 +160,8 @@ def run_session(
     try:
         with _scenario_parameters(name, sections):
             run = ScenarioRun(name, context=context, duration=duration, short=short, seed=seed,
-                              recorder=make_observer, progress=on_progress)
+                              recorder=make_observer, progress=on_progress, fault=fault,
+                              fault_time=fault_time)
         if inspect is not None:
             inspect(run)
         try:

@@ -89,3 +89,40 @@ def test_layouts_command_writes_loadable_layouts(tmp_path: Path) -> None:
     layouts = {p.stem: load_layout(p) for p in tmp_path.glob("*.yaml")}
     assert set(layouts) == {"left_upper_arm", "left_forearm", "right_forearm"}
     assert layouts["left_forearm"].link == "left_forearm_link"
+
+
+def test_fault_choices_are_the_simulator_s(capsys: pytest.CaptureFixture[str]) -> None:
+    from phri_bringup.cli import FAULT_CHOICES
+    from phri_sim.faults import FAULT_KINDS
+
+    assert FAULT_CHOICES == FAULT_KINDS
+    with pytest.raises(SystemExit):
+        main(["sim", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for kind in FAULT_KINDS:
+        assert kind in text
+    assert "--fault-time" in text
+
+
+@pytest.mark.ros
+def test_phri_sim_fault_reports_what_the_robot_did(tmp_path: Path) -> None:
+    """`phri sim --fault force_spike --fault-time 5`: the spike reaches the skin stream once at
+    5 s and metrics.json says what followed, with the ISO/TS 15066 block and verdict."""
+    out = tmp_path / "run"
+    proc = subprocess.run(
+        [*PHRI, "sim", "--scenario", "waltz", "--duration", "5.5", "--fault", "force_spike",
+         "--fault-time", "5", "--no-record", "--out", str(out)],
+        capture_output=True, text=True, timeout=180,
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    metrics = json.loads((out / "metrics.json").read_text())
+    fault = metrics["fault"]
+    assert fault["kind"] == "force_spike" and fault["messages_changed"] == 1
+    assert fault["first_changed_at"] == pytest.approx(5.0)
+    assert fault["periods"] == pytest.approx(50, abs=2)
+    assert metrics["iso15066"]["person"]["person_waist"]["region"] == "abdomen"
+    assert "ISO/TS 15066 body-region limits: within" in proc.stderr
+    assert "fault force_spike at 5 s" in proc.stderr
+    bad = subprocess.run([*PHRI, "sim", "--fault", "skin_melted", "--no-record"],
+                         capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 2 and "skin_melted" in bad.stderr

@@ -46,8 +46,9 @@ def test_launch_kwargs_point_at_existing_parameter_files() -> None:
             continue
         files = [p for p in kwargs["parameters"] if isinstance(p, str)]
         assert all(Path(p).is_file() for p in files)
+        node_path = f"{spec.namespace}/{spec.name}" if spec.namespace else spec.name
         for f in files:
-            assert spec.name in params.load(Path(f)), (spec.name, f)
+            assert node_path in params.load(Path(f)), (node_path, f)
         inline = [p for p in kwargs["parameters"] if isinstance(p, dict)]
         if spec.name == graph.ROBOT_STATE_PUBLISHER:
             assert inline[0]["robot_description"] == "<robot/>"
@@ -60,11 +61,47 @@ def test_real_graph_references_the_hardware_nodes() -> None:
     assert by[("right", "ur_arm_bridge")].package == "phri_hardware"
     assert by[("", "base_guard")].executable == "base_guard_node"
     assert by[("", "skin_driver_left")].parameters["port"] == "/dev/ttyUSB7"
-    assert by[("", "skin_driver_right")].parameters["port"] == "/dev/ttyACM1"
-    patches = [p for n in nodes if n.package == "skin_driver"
-               for p in n.parameters["layout_files"]]
-    assert sorted(Path(p).stem for p in patches) == sorted(graph.PATCHES)
+    assert "port" not in by[("", "skin_driver_right")].parameters  # skin_real.yaml's
     assert graph.ROBOT_STATE_PUBLISHER in {n.name for n in nodes}
+
+
+def test_real_graph_loads_phri_hardware_configs_and_remaps_the_base() -> None:
+    """Every hardware node gets its phri_hardware file first (then real.yaml), so the arm
+    bridges see a robot_ip and the skin drivers a port and layouts; the base guard's output goes
+    to the driver topic given on the command line."""
+    nodes = graph.real_graph(base_cmd_topic="/platform/cmd_vel")
+    share = graph.share_dir("phri_hardware") / "config"
+    for n in nodes:
+        if n.package in ("phri_hardware", "skin_driver"):
+            files = [Path(f) for f in graph.launch_node_kwargs(n)["parameters"]
+                     if isinstance(f, str)]
+            assert files[0].parent == share, n.name
+            node_path = f"{n.namespace}/{n.name}" if n.namespace else n.name
+            assert params.load(files[0])[node_path], node_path
+    by = {(n.namespace, n.name): n for n in nodes}
+    assert ("base/cmd_vel", "/platform/cmd_vel") in by[("", "base_guard")].remappings
+    arm = graph.launch_node_kwargs(by[("left", "ur_arm_bridge")])
+    assert params.load(Path(arm["parameters"][0]))["left/ur_arm_bridge"]["robot_ip"]
+
+
+def test_real_graph_layout_dir_is_made_absolute(tmp_path: Path, monkeypatch: Any) -> None:
+    monkeypatch.chdir(tmp_path)
+    nodes = graph.real_graph(layout_dir="layouts", hardware_dir=str(tmp_path / "site"))
+    files = [Path(f) for n in nodes if n.package == "skin_driver"
+             for f in n.parameters["layout_files"]]
+    assert sorted(f.stem for f in files) == sorted(graph.PATCHES)
+    assert all(f.is_absolute() and f.parent == tmp_path / "layouts" for f in files)
+    arm = next(n for n in nodes if n.name == "ur_arm_bridge")
+    assert arm.parameter_files == (str(tmp_path / "site" / "ur_arms.yaml"),)
+
+
+def test_rviz_runs_on_sim_time_in_the_simulation() -> None:
+    sim_rviz = graph.launch_node_kwargs(graph.sim_graph("waltz", rviz=True)[-1])
+    real_rviz = graph.launch_node_kwargs(graph.real_graph(rviz=True)[-1])
+    assert sim_rviz["executable"] == real_rviz["executable"] == "rviz2"
+    assert sim_rviz["parameters"] == [{"use_sim_time": True}]
+    assert real_rviz["parameters"] == [{"use_sim_time": False}]
+    assert Path(sim_rviz["arguments"][1]).is_file()
 
 
 def test_scenario_names_map_to_phri_sim() -> None:

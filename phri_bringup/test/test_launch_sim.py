@@ -1,7 +1,8 @@
 """launch_testing: sim.launch.py on a ROS install (skipped where launch_testing is absent).
 
-Checks: the graph's topics are alive, the robot moves when the scenario pushes it, NaN
-injection keeps every node active, and every process exits cleanly. The same checks run in CI
+Checks: the graph's topics are alive, the robot moves when the scenario pushes it, a real skin
+frame with NaN forces and a NaN taxel position keeps every node active and every command finite,
+and every process exits cleanly. The same checks run in CI
 through the in-process runner (test_session.py, test_cli.py).
 """
 
@@ -20,12 +21,15 @@ pytest.importorskip("launch_ros")
 import launch
 import launch_testing.actions
 import launch_testing.asserts
+import numpy as np
 import rclpy
 from launch.actions import IncludeLaunchDescription
 from launch.launch_description_sources import PythonLaunchDescriptionSource
 from sensor_msgs.msg import JointState, PointCloud2
+from std_msgs.msg import Float64MultiArray
 
 from phri_bringup.graph import SIM_TOPICS, share_dir
+from phri_common.taxels import TaxelArray, msg_to_taxels, taxels_to_msg
 
 pytestmark = pytest.mark.launch_test
 
@@ -66,19 +70,36 @@ class TestSimBringup(unittest.TestCase):
 
     def test_robot_moves_when_pushed_and_survives_nan(self) -> None:
         speeds: list[float] = []
+        commands: list[list[float]] = []
+        taxels: list[PointCloud2] = []
         self.node.create_subscription(
             JointState, "/joint_states",
             lambda m: speeds.append(max((abs(v) for v in m.velocity), default=0.0)), 10)
+        self.node.create_subscription(
+            Float64MultiArray, "/right/forward_velocity_controller/commands",
+            lambda m: commands.append(list(m.data)), 10)
+        self.node.create_subscription(PointCloud2, "/skin/right_forearm/taxels",
+                                      taxels.append, 10)
         # The centring scenario presses the right forearm from 1 s (sim time) on.
         self.assertTrue(self._wait(lambda: any(s > 1e-3 for s in speeds), 60.0))
-        pub = self.node.create_publisher(PointCloud2, "skin/right_forearm/taxels", 10)
-        bad = PointCloud2()
-        bad.header.frame_id = "right_forearm_link"
+        self.assertTrue(taxels)
+        # A real skin frame of the pressed patch with NaN forces and a NaN taxel position.
+        frame = msg_to_taxels(taxels[-1])
+        forces = np.full_like(frame.forces, np.nan)
+        positions = frame.positions.copy()
+        positions[0] = np.nan
+        bad = taxels_to_msg(TaxelArray(positions, frame.normals, forces, frame.weights,
+                                       frame.frame_id, frame.stamp_ns))
+        self.assertEqual(bad.width, taxels[-1].width)
+        pub = self.node.create_publisher(PointCloud2, "/skin/right_forearm/taxels", 10)
         for _ in range(20):
             pub.publish(bad)
-        count = len(speeds)
+            rclpy.spin_once(self.node, timeout_sec=0.01)
+        count, sent = len(speeds), len(commands)
         self.assertTrue(self._wait(lambda: len(speeds) > count + 50, 20.0))
+        self.assertTrue(self._wait(lambda: len(commands) > sent + 20, 20.0))
         self.assertTrue(all(math.isfinite(s) for s in speeds))
+        self.assertTrue(all(math.isfinite(v) for c in commands for v in c))
         nodes = set(self.node.get_node_names())
         self.assertTrue({"phri_sim", "contact_estimation", "wholebody_controller"} <= nodes)
 

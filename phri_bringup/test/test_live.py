@@ -40,7 +40,12 @@ def _listening_addresses(port: int) -> set[str]:
     return out
 
 
-def test_server_starts_on_localhost_and_advertises_channels() -> None:
+@pytest.mark.parametrize("protocols", [
+    ["foxglove.sdk.v1", "foxglove.websocket.v1"],  # current Foxglove
+    ["foxglove.websocket.v1"],  # Lichtblick, Foxglove Studio before 2025 (the SDK alone: 400)
+    ["foxglove.sdk.v1"],
+])
+def test_server_starts_on_localhost_and_advertises_channels(protocols: list[str]) -> None:
     websockets = pytest.importorskip("websockets.sync.client")
     from phri_bringup.live import FoxgloveSink
 
@@ -51,17 +56,34 @@ def test_server_starts_on_localhost_and_advertises_channels() -> None:
         topics: set[str] = set()
         documented = _documented_channels()
         assert len(documented) == 4 + len(PATCHES)
-        protocols = ["foxglove.sdk.v1", "foxglove.websocket.v1"]
         with websockets.connect(f"ws://127.0.0.1:{sink.port}", subprotocols=protocols,
                                 open_timeout=5) as ws:
+            assert ws.subprotocol in protocols
+            channels: dict[str, int] = {}
             for _ in range(10):
                 msg = ws.recv(timeout=5)
                 if isinstance(msg, str):
                     doc = json.loads(msg)
                     if doc.get("op") == "advertise":
+                        channels |= {c["topic"]: c["id"] for c in doc["channels"]}
                         topics |= {c["topic"] for c in doc["channels"]}
                 if documented <= topics:
                     break
+            # Subscribe to the robot scene and get a binary message-data frame (opcode 1,
+            # then our subscription id) through the relay.
+            ws.send(json.dumps({"op": "subscribe",
+                                "subscriptions": [{"id": 7, "channelId": channels["/robot"]}]}))
+            data = b""
+            for attempt in range(50):
+                sink.robot.log(sink._robot_update, log_time=attempt)
+                try:
+                    frame = ws.recv(timeout=0.1)
+                except TimeoutError:
+                    continue
+                if isinstance(frame, bytes):
+                    data = frame
+                    break
+            assert data[:1] == b"\x01" and int.from_bytes(data[1:5], "little") == 7
         assert topics == documented
     finally:
         sink.close()

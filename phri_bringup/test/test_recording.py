@@ -59,9 +59,14 @@ def test_recording_round_trip_through_rosbags(tmp_path: Path) -> None:
 
 
 def test_tf_tree_composes_to_the_simulator_link_poses() -> None:
-    """Chaining the parent-relative transforms reproduces phri_sim's world link poses."""
+    """Chaining the parent-relative transforms reproduces phri_sim's world link poses, and the
+    tree is the URDF's (every joint's parent → child, nothing else), so a recording replayed
+    beside robot_state_publisher gives no frame two parents."""
+    import xml.etree.ElementTree as ET
+
     from scipy.spatial.transform import Rotation
 
+    from phri_description.urdf_writer import URDF_PATH
     from phri_sim.scenarios import Q_HOME
     from phri_sim.sim import Simulation
 
@@ -73,7 +78,14 @@ def test_tf_tree_composes_to_the_simulator_link_poses() -> None:
     frames.set_state(sim.joint_names[3:], q[3:], q[:3])
     world: dict[str, tuple[np.ndarray, np.ndarray]] = {"odom": (np.eye(3), np.zeros(3))}
     transforms = frames.transforms()
-    for t in transforms:  # parents come before children in MuJoCo's body order
+    urdf = ET.parse(URDF_PATH).getroot()
+    urdf_edges = {(j.find("parent").get("link"), j.find("child").get("link"))  # type: ignore[union-attr]
+                  for j in urdf.iter("joint")}
+    assert [(t.parent, t.child) for t in transforms if (t.parent, t.child) in urdf_edges] == \
+        [(t.parent, t.child) for t in transforms]
+    assert {(t.parent, t.child) for t in transforms} == urdf_edges
+    assert len({t.child for t in transforms}) == len(transforms)
+    for t in transforms:  # parents come before children (URDF joint order)
         rp, pp = world[t.parent]
         w, x, y, z = t.rotation
         r = Rotation.from_quat([x, y, z, w]).as_matrix()

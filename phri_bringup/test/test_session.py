@@ -49,13 +49,44 @@ def test_stop_request_ends_early_with_zero_velocity(ros_context: Any) -> None:
 @pytest.fixture(scope="module")
 def recorded_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Any]:
     """A 2.5 s centring run (the press starts at 1 s), recorded with every taxel frame."""
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.node import Node
+    from rclpy.qos import DurabilityPolicy, QoSProfile
+    from std_msgs.msg import String
+
     from phri_common.testing import ros_context_scope
 
     directory = tmp_path_factory.mktemp("run") / "recording"
     with ros_context_scope() as context:
-        result = run_session("centring", duration=2.5, context=context,
+        # rviz's way of getting the URDF: a transient-local subscription to /robot_description.
+        viewer = Node("urdf_viewer", context=context)
+        urdfs: list[str] = []
+        viewer.create_subscription(String, "/robot_description", lambda m: urdfs.append(m.data),
+                                   QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+
+        executor = SingleThreadedExecutor(context=context)
+        executor.add_node(viewer)
+
+        def look(t: float, duration: float) -> None:  # once per simulated second
+            del t, duration
+            for _ in range(20):
+                if urdfs:
+                    break
+                executor.spin_once(timeout_sec=0.05)
+
+        result = run_session("centring", duration=2.5, context=context, progress=look,
                              sinks=[RecordingSink(str(directory), skin_rate_hz=0.0)])
+    result.message_counts["urdf"] = urdfs  # type: ignore[assignment]
     return directory, result
+
+
+def test_phri_sim_publishes_the_robot_description(recorded_run: Any) -> None:
+    """In ``phri sim`` (no robot_state_publisher) the URDF is on /robot_description, latched."""
+    from phri_description.urdf_writer import URDF_PATH
+
+    _, result = recorded_run
+    urdfs = result.message_counts["urdf"]
+    assert urdfs and urdfs[0] == URDF_PATH.read_text(encoding="utf-8")
 
 
 def test_recording_holds_every_documented_topic_with_its_type(recorded_run: Any) -> None:

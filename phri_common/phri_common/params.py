@@ -79,12 +79,30 @@ class ParamSpec:
                 raise self._error(value, f"expected {self.length} elements, got {len(items)}")
             if len(items) < self.min_length:
                 raise self._error(value, f"expected at least {self.min_length} elements")
-            for item in items:
-                self._check_scalar(item, value)
-            return items
+            return [self._check_scalar(item, value) for item in items]
         return self._check_scalar(value, value)
 
+    @property
+    def kind(self) -> type:
+        """The Python type of the value (of each element for arrays): bool, int, float or str."""
+        sample = self.default
+        if isinstance(sample, list):
+            sample = sample[0] if sample else ""
+        return type(sample)
+
+    def _check_type(self, item: Any, whole: Any) -> Any:
+        kind = self.kind
+        ok = isinstance(item, kind) and (kind is bool or not isinstance(item, bool))
+        if kind is float and isinstance(item, int) and not isinstance(item, bool):
+            return float(item)  # an integer is a fine double
+        if not ok:
+            what = "an array of " if self.is_array else ""
+            raise self._error(whole, f"expected {what}{kind.__name__}, got "
+                                     f"{type(item).__name__}")
+        return item
+
     def _check_scalar(self, item: Any, whole: Any) -> Any:
+        item = self._check_type(item, whole)
         if isinstance(item, (bool, str)):
             return item
         if isinstance(item, (int, float)):

@@ -11,12 +11,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from rcl_interfaces.msg import (
-    FloatingPointRange,
-    IntegerRange,
-    ParameterDescriptor,
-    SetParametersResult,
-)
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -25,28 +20,21 @@ from phri_common.params import ParameterValueError, ParamSpec, ParamValue
 
 
 def _descriptor(spec: ParamSpec) -> ParameterDescriptor:
+    """The ROS descriptor: description, unit, type and range as text, read-only flag.
+
+    Type and range are checked by :meth:`ParamSpec.check` in our set-parameters callback, not by
+    rclpy's descriptor checks (``dynamic_typing``, no ``*_range``): rclpy would refuse first with
+    "Wrong parameter type, expected '3' got '4'" or its own range text, naming neither the
+    parameter nor the value; ours names the parameter, the value, the type and the range.
+    """
     unit = "" if spec.unit == "-" else f" [{spec.unit}]"
-    desc = ParameterDescriptor(
+    kind = f"{'array of ' if spec.is_array else ''}{spec.kind.__name__}"
+    return ParameterDescriptor(
         description=f"{spec.description}{unit}",
-        additional_constraints=f"allowed range: {spec.range_text()}",
+        additional_constraints=f"type: {kind}; allowed range: {spec.range_text()}",
         read_only=spec.read_only,
-        dynamic_typing=False,
+        dynamic_typing=True,
     )
-    finite_bounds = (
-        spec.low is not None and spec.high is not None and abs(spec.low) < 1e300
-        and abs(spec.high) < 1e300
-    )
-    if not spec.is_array and finite_bounds and not isinstance(spec.default, bool):
-        assert spec.low is not None and spec.high is not None
-        if isinstance(spec.default, float):
-            desc.floating_point_range = [
-                FloatingPointRange(from_value=float(spec.low), to_value=float(spec.high), step=0.0)
-            ]
-        elif isinstance(spec.default, int):
-            desc.integer_range = [
-                IntegerRange(from_value=int(spec.low), to_value=int(spec.high), step=1)
-            ]
-    return desc
 
 
 def _ros_type(spec: ParamSpec) -> Parameter.Type:
@@ -88,9 +76,9 @@ def declare_parameters(
     for spec in specs:
         try:
             if spec.is_array and not spec.default:
-                param: Parameter = node.declare_parameter(
-                    spec.name, _ros_type(spec), _descriptor(spec)
-                )
+                descriptor = _descriptor(spec)
+                descriptor.dynamic_typing = False  # rclpy: a given type excludes dynamic typing
+                param: Parameter = node.declare_parameter(spec.name, _ros_type(spec), descriptor)
                 raw = param.value if param.value is not None else []
             else:
                 raw = node.declare_parameter(spec.name, spec.default, _descriptor(spec)).value

@@ -60,6 +60,38 @@ UR16E_MASSES: tuple[float, ...] = (7.369, 10.450, 4.321, 2.180, 2.033, 0.907)
 """Masses of links 1..6 (shoulder … wrist 3) [kg]."""
 UR16E_BASE_MASS = 4.0
 """Mass of the UR16e base (link 0) as in ur_description [kg]."""
+UR16E_COM: tuple[Vec3, ...] = (
+    (0.0, -0.016, 0.030),
+    (0.302, 0.0, 0.160),
+    (0.194, 0.0, 0.065),
+    (0.0, -0.009, 0.011),
+    (0.0, 0.018, 0.012),
+    (0.0, 0.0, -0.044),
+)
+"""Centres of mass of links 1..6 in their D-H frames [m]: Universal Robots' published values
+("DH parameters for calculations of kinematics and dynamics"), as ur_description's
+``config/ur16e/physical_parameters.yaml`` gives them (its ``center_of_mass`` entries, whose
+comments map its link frames back to these D-H values)."""
+UR16E_INERTIA: tuple[tuple[float, float, float, float, float, float], ...] = (
+    (0.03351, 0.03374, 0.02100, 0.00002, -0.00001, 0.00374),
+    (0.02796, 0.47558, 0.47635, -0.00010, -0.00720, 0.00003),
+    (0.01091, 0.12060, 0.11714, 0.00006, 0.01012, 0.00001),
+    (0.00609, 0.00245, 0.00579, -0.00001, 0.0, 0.00083),
+    (0.00389, 0.00219, 0.00363, -0.00001, 0.0, -0.00045),
+    (0.00117, 0.00118, 0.00084, 0.0, 0.0, 0.0),
+)
+"""Inertia tensors of links 1..6 about their centres of mass [kg·m²] as (ixx, iyy, izz, ixy,
+ixz, iyz), axes parallel to the link's D-H frame: ur_description's
+``config/ur16e/physical_parameters.yaml`` ``tensor`` entries. Its inertial origins rotate them by
+the ``rotation`` entries (roll π/2, 0, 0, π/2, −π/2, 0), which are exactly the D-H α that turn its
+link frames into the D-H frames, so the values hold in the D-H axes unchanged."""
+
+
+def ur16e_inertial(i: int) -> Inertial:
+    """Official inertial of UR16e link ``i`` (0-based: 0 = shoulder … 5 = wrist 3), D-H frame."""
+    ixx, iyy, izz, ixy, ixz, iyz = UR16E_INERTIA[i]
+    tensor = ((ixx, ixy, ixz), (ixy, iyy, iyz), (ixz, iyz, izz))
+    return Inertial(UR16E_MASSES[i], UR16E_COM[i], tensor)
 UR16E_VELOCITY_LIMITS: tuple[float, ...] = (
     math.radians(120.0),
     math.radians(120.0),
@@ -578,7 +610,7 @@ def _arm_links(side: str) -> tuple[list[Link], list[Joint]]:
     for i in range(6):
         name = f"{side}_{UR_LINKS[i + 1]}"
         links.append(
-            Link(name, geoms[i + 1], _inertial(UR16E_MASSES[i], geoms[i + 1]),
+            Link(name, geoms[i + 1], ur16e_inertial(i),
                  doc=f"UR D-H frame {i + 1}")
         )
         pos, rot = _dh_offset(i)

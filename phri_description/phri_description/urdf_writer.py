@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import sys
+from collections.abc import Mapping
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
@@ -32,7 +33,7 @@ from phri_description.description import (
     RobotDescription,
     robot_description,
 )
-from phri_description.transforms import rpy_from_matrix
+from phri_description.transforms import axis_angle, rpy_from_matrix
 
 URDF_PATH = Path(__file__).resolve().parent.parent / "urdf" / "phri_robot.urdf"
 """The checked-in URDF (installed to ``share/phri_description/urdf/``)."""
@@ -105,6 +106,38 @@ def _limit(joint: Joint) -> str:
     )
 
 
+def _needs_helper(joint: Joint) -> bool:
+    """A moving joint with a non-identity offset becomes two URDF joints (module docstring)."""
+    return joint.kind != "fixed" and not (
+        np.allclose(joint.offset_matrix(), np.eye(3)) and not np.any(joint.offset_vector()))
+
+
+def urdf_transforms(positions: Mapping[str, float], description: RobotDescription | None = None
+                    ) -> list[tuple[str, str, np.ndarray, np.ndarray]]:
+    """Every URDF joint's transform at joint ``positions`` [rad or m, by name; absent = 0]:
+    (parent, child, rotation 3×3, translation [m]) of the child frame in the parent frame, in
+    description order (parents first) — what robot_state_publisher puts on /tf and /tf_static
+    for the URDF of :func:`urdf_string`: a moving joint is Motion(axis, q) (rotation about
+    ``axis`` or translation along it), its ``_offset`` joint or a fixed joint the offset."""
+    desc = description or robot_description()
+    out = []
+    for joint in desc.joints:
+        offset = (joint.parent, joint.child, joint.offset_matrix(), joint.offset_vector())
+        if joint.kind == "fixed":
+            out.append(offset)
+            continue
+        q = float(positions.get(joint.name, 0.0))
+        axis = np.asarray(joint.axis, dtype=float)
+        motion_child = f"{joint.child}_motion" if _needs_helper(joint) else joint.child
+        if joint.kind == "prismatic":
+            out.append((joint.parent, motion_child, np.eye(3), axis * q))
+        else:
+            out.append((joint.parent, motion_child, axis_angle(axis, q), np.zeros(3)))
+        if _needs_helper(joint):
+            out.append((motion_child, *offset[1:]))
+    return out
+
+
 def _joint(joint: Joint) -> tuple[list[str], list[str]]:
     """URDF joint elements and helper link names for one description joint."""
     offset_rot = joint.offset_matrix()
@@ -117,7 +150,7 @@ def _joint(joint: Joint) -> tuple[list[str], list[str]]:
             f"    {_origin(offset_pos, offset_rot)}",
             "  </joint>",
         ], []
-    identity_offset = np.allclose(offset_rot, np.eye(3)) and not np.any(offset_pos)
+    identity_offset = not _needs_helper(joint)
     moving_child = joint.child if identity_offset else f"{joint.child}_motion"
     kind = "prismatic" if joint.kind == "prismatic" else "revolute"
     if kind == "revolute" and not (math.isfinite(joint.lower) and math.isfinite(joint.upper)):

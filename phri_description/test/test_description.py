@@ -221,3 +221,48 @@ def test_mujoco_model_steps_without_warnings() -> None:
         mujoco.mj_step(model, data)
     assert int(data.warning.number.sum()) == 0
     assert np.all(np.isfinite(data.qpos))
+
+
+# Universal Robots' UR16e dynamics, D-H frames: ur_description config/ur16e/physical_parameters.yaml
+# (mass; centre of mass as the "model" values its comments give; tensor about the centre of
+# mass in axes rotated by its `rotation` = the D-H α), typed in here from that file.
+UR16E_REFERENCE = {
+    "shoulder_link": (7.369, (0.0, -0.016, 0.030),
+                      (0.03351, 0.03374, 0.02100, 0.00002, -0.00001, 0.00374)),
+    "upper_arm_link": (10.450, (0.302, 0.0, 0.16),
+                       (0.02796, 0.47558, 0.47635, -0.00010, -0.00720, 0.00003)),
+    "forearm_link": (4.321, (0.194, 0.0, 0.065),
+                     (0.01091, 0.12060, 0.11714, 0.00006, 0.01012, 0.00001)),
+    "wrist_1_link": (2.180, (0.0, -0.009, 0.011),
+                     (0.00609, 0.00245, 0.00579, -0.00001, 0.0, 0.00083)),
+    "wrist_2_link": (2.033, (0.0, 0.018, 0.012),
+                     (0.00389, 0.00219, 0.00363, -0.00001, 0.0, -0.00045)),
+    "wrist_3_link": (0.907, (0.0, 0.0, -0.044), (0.00117, 0.00118, 0.00084, 0.0, 0.0, 0.0)),
+}
+
+
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_arm_inertials_are_the_official_ur16e_values(side: str) -> None:
+    """URDF and MuJoCo carry UR's published mass, centre of mass and inertia per arm link."""
+    import xml.etree.ElementTree as ET
+
+    from phri_description.mujoco_model import build_model
+    from phri_description.urdf_writer import URDF_PATH
+
+    links = {lk.get("name"): lk for lk in ET.parse(URDF_PATH).getroot().iter("link")}
+    model = build_model()
+    for link, (mass, com, (ixx, iyy, izz, ixy, ixz, iyz)) in UR16E_REFERENCE.items():
+        inertial = links[f"{side}_{link}"].find("inertial")
+        assert inertial is not None
+        assert float(inertial.find("mass").get("value", "")) == pytest.approx(mass)  # type: ignore[union-attr]
+        xyz = [float(v) for v in inertial.find("origin").get("xyz", "").split()]  # type: ignore[union-attr]
+        assert xyz == pytest.approx(com, abs=1e-9)
+        got = {k: float(v) for k, v in inertial.find("inertia").attrib.items()}  # type: ignore[union-attr]
+        want = {"ixx": ixx, "iyy": iyy, "izz": izz, "ixy": ixy, "ixz": ixz, "iyz": iyz}
+        assert got == pytest.approx(want, abs=1e-12)
+        # MuJoCo: same mass and centre; principal moments = eigenvalues of the tensor.
+        body = model.body(f"{side}_{link}")
+        assert body.mass[0] == pytest.approx(mass)
+        assert body.ipos == pytest.approx(com, abs=1e-9)
+        tensor = np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+        assert sorted(body.inertia) == pytest.approx(sorted(np.linalg.eigvalsh(tensor)), rel=1e-6)

@@ -19,7 +19,6 @@ import sys
 from typing import Any
 
 import numpy as np
-import rclpy
 from geometry_msgs.msg import (
     Point,
     PointStamped,
@@ -40,9 +39,11 @@ from std_msgs.msg import Float64MultiArray, Header
 from phri_common import paper
 from phri_common.params import ParamSpec, ParamValue
 from phri_common.planar import quaternion_from_yaw
+from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
 from phri_common.taxels import TaxelCloudEncoder
+from phri_sim.faults import DEFAULT_FAULT_TIME, FAULT_KINDS, FaultSpec, SensorFaults
 from phri_sim.scenarios import Q_HOME, SCENARIOS, Script, start_scenario
 from phri_sim.sim import ARM_JOINTS, CommandError, SimConfig, Simulation
 from phri_sim.skin import SkinConfig
@@ -79,6 +80,10 @@ PARAMS: list[ParamSpec] = [
     ParamSpec("skin_softness", 0.004, "thickness of the footprint model's compliant layer",
               unit="m", low=1e-4, high=0.05, read_only=True),
     ParamSpec("viewer", False, "open the MuJoCo viewer (needs a display)", read_only=True),
+    ParamSpec("fault", "", "sensor fault to inject ('' = none): skin_blind, skin_stuck, "
+              "force_spike, joint_jump (docs: Fault injection)", read_only=True),
+    ParamSpec("fault_time", DEFAULT_FAULT_TIME, "sim time from which the fault acts",
+              unit="s", low=0.0, high=1e6, read_only=True),
 ]
 
 SENSOR_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
@@ -97,6 +102,17 @@ def _check_divides(step: float, periods: dict[str, float]) -> None:
             )
 
 
+def sensor_faults(values: dict[str, ParamValue], joint_names: tuple[str, ...]) -> SensorFaults:
+    """The sensor faults of the ``fault`` and ``fault_time`` parameters; ValueError naming the
+    parameter for an unknown fault."""
+    fault = str(values["fault"])
+    if fault and fault not in FAULT_KINDS:
+        raise ValueError(f"parameter 'fault' refused value {fault!r}: allowed '' or "
+                         f"{', '.join(FAULT_KINDS)}")
+    spec = FaultSpec(fault, float(values["fault_time"])) if fault else None
+    return SensorFaults(spec, joint_names)
+
+
 def yaw_quaternion(yaw: float) -> Quaternion:
     """Quaternion of a rotation about z by ``yaw`` [rad]."""
     w, x, y, z = quaternion_from_yaw(yaw)
@@ -105,7 +121,7 @@ def yaw_quaternion(yaw: float) -> Quaternion:
 
 def joint_state_msg(names: tuple[str, ...], q: np.ndarray, qd: np.ndarray, stamp_ns: int
                     ) -> JointState:
-    """JointState of the arm joints (positions [rad], velocities [rad/s])."""
+    """JointState of ``names`` (positions [rad] or [m], velocities [rad/s] or [m/s])."""
     return JointState(
         header=Header(stamp=ns_to_stamp(stamp_ns)),
         name=list(names),
@@ -174,6 +190,7 @@ class SimBridgeNode(Node):
             self.script = start_scenario(self.sim, self.scenario)
         else:
             self.sim.reset(np.array(Q_HOME))
+        self.faults = sensor_faults(v, self.sim.joint_names[3:])
         self.period = float(v["control_period"])
         self.steps_per_period = max(1, round(self.period / self.sim.dt))
         self._skin_every = max(1, round(1.0 / (float(v["skin_rate_hz"]) * self.sim.dt)))
@@ -188,6 +205,17 @@ class SimBridgeNode(Node):
         self.commands_received = dict.fromkeys(("base", "left", "right"), 0)
         self.commands_refused = 0
 
+        self._make_topics()
+        if bool(v["viewer"]):
+            self._open_viewer()
+        self.timer = None
+        if not bool(v["lockstep"]):
+            wall = self.period / float(v["real_time_factor"])
+            self.timer = self.create_timer(wall, self._tick)
+        self.publish_all(clock=True)
+
+    def _make_topics(self) -> None:
+        """Encoders, publishers and command subscriptions (docs/phri_sim.md, Topics)."""
         self.encoders = {
             name: TaxelCloudEncoder(p.layout.positions, p.layout.normals, p.layout.link)
             for name, p in self.sim.patches.items()
@@ -213,13 +241,6 @@ class SimBridgeNode(Node):
             self.create_subscription(
                 Float64MultiArray, topic, lambda msg, side=side: self._on_arm(side, msg), 10
             )
-        if bool(v["viewer"]):
-            self._open_viewer()
-        self.timer = None
-        if not bool(v["lockstep"]):
-            wall = self.period / float(v["real_time_factor"])
-            self.timer = self.create_timer(wall, self._tick)
-        self.publish_all(clock=True)
 
     # -- commands -------------------------------------------------------------------------------
     def _command(self, channel: str, values: np.ndarray) -> None:
@@ -242,6 +263,11 @@ class SimBridgeNode(Node):
     def stamp_ns(self) -> int:
         """Simulation time [ns] (integer steps × dt, so stamps are exact)."""
         return round(self.step_count * self.sim.dt * 1e9)
+
+    @property
+    def fault_clock(self) -> float:
+        """Sim time [s] the sensor faults see: the exact stamp of the outgoing messages."""
+        return self.stamp_ns * 1e-9
 
     def advance(self, periods: int = 1, *, clock: bool = True) -> None:
         """Advance ``periods`` control periods, publishing each topic when it falls due; publish
@@ -284,14 +310,17 @@ class SimBridgeNode(Node):
         self.clock_pub.publish(Clock(clock=ns_to_stamp(self.stamp_ns)))
 
     def publish_state(self) -> None:
-        """/joint_states (12 arm joints) and /odom."""
+        """/joint_states (the base joints base_x, base_y, base_yaw, so robot_state_publisher
+        connects odom → base_link, then the 12 arm joints through the sensor faults) and /odom."""
         stamp = self.stamp_ns
         q, qd = self.sim.q, self.sim.qd
-        self.joint_pub.publish(joint_state_msg(self.sim.joint_names[3:], q[3:], qd[3:], stamp))
+        positions = np.concatenate([q[:3], self.faults.joints(q[3:], self.fault_clock)])
+        self.joint_pub.publish(joint_state_msg(self.sim.joint_names, positions, qd, stamp))
         self.odom_pub.publish(odometry_msg(q[:3], self.sim.base_twist(), stamp))
 
     def publish_skin(self, *, force: bool = False) -> None:
-        """One taxel array per patch (frame = the patch's link).
+        """One taxel array per patch (frame = the patch's link), noisy, through the sensor
+        faults.
 
         With ``skin_idle_decimation`` N > 1 a patch nobody touches (and that was untouched in
         its last published frame) is published only every N-th time; ``force`` publishes every
@@ -311,7 +340,8 @@ class SimBridgeNode(Node):
                     continue
                 self._idle_count[name] = 0
                 self._was_touched[name] = touched
-            forces = self.sim.add_skin_noise(name, clean)
+            forces = self.faults.taxels(name, self.sim.add_skin_noise(name, clean),
+                                        self.fault_clock)
             self.skin_pubs[name].publish(self.encoders[name].encode(forces, stamp))
             self.published_patches.append(name)
 
@@ -366,18 +396,10 @@ class SimBridgeNode(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    """Entry point ``phri_sim_bridge``: the free-running simulation until Ctrl-C."""
-    rclpy.init(args=args if args is not None else sys.argv)
-    try:
-        node = SimBridgeNode()
-    except ValueError as err:
-        print(f"phri_sim: {err}", file=sys.stderr)
-        rclpy.try_shutdown()
-        sys.exit(2)
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, rclpy.executors.ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
+    """Entry point ``phri_sim_bridge``: the free-running simulation until Ctrl-C / SIGTERM.
+
+    Runs under :func:`phri_common.ros_main.run_nodes`, whose signal handlers only set a stop flag:
+    with rclpy's default handler, SIGINT invalidated the context while a timer tick was still
+    publishing, and the bridge died with ``RCLError: Failed to publish: publisher's context is
+    invalid`` (most launches stopped with Ctrl-C, measured; test_bridge.py checks the exit)."""
+    sys.exit(run_nodes(lambda: [SimBridgeNode()], "phri_sim", args))

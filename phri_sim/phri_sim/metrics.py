@@ -22,6 +22,11 @@ and :meth:`MetricsRecorder.summary` reduces them to the scenario's JSON metrics:
 * ``centring`` / ``tracking``: estimated against true contact centre (link frame, error norm) and
   force (magnitude error), over samples where both say "touched" and the touch is older than
   :data:`SETTLE_TIME`;
+* every scenario, ``iso15066``: the peak and sustained contact force on every body part of the
+  person and on every robot link, sampled on every physics step, beside the ISO/TS 15066 limits of
+  the part's region (:mod:`phri_sim.body_forces`) and an ``ok`` flag per row and overall;
+* with a sensor fault (:mod:`phri_sim.faults`), ``fault``: what the robot did from the fault time
+  t_f on (``AfterFault.summary``, docs/phri_sim.md "Fault injection");
 * ``waltz``: the person's torso path against the robot's base path (planar displacements from
   their starts): RMS error, the lag that best aligns them and the RMS error at that lag; the share
   of time the waist touches the left forearm (from the first touch on); peak / mean waist force.
@@ -39,6 +44,12 @@ from numpy.typing import NDArray
 
 from phri_common import paper
 from phri_common.records import ContactState
+from phri_sim.body_forces import (
+    ForceLimitTracker,
+    PersonRobotForces,
+    limit_report,
+    part_region,
+)
 from phri_sim.scenarios import WALTZ_LINK
 from phri_sim.sim import Simulation
 
@@ -47,8 +58,82 @@ FloatArray = NDArray[np.float64]
 POSITION_TOLERANCE = 0.01
 """Slack on position ranges for servo tracking error [rad]."""
 VELOCITY_TOLERANCE = 1e-6
+STANDSTILL_SPEED = 1e-3
+"""A robot whose every joint rate is below this [m/s, rad/s] stands still."""
 SETTLE_TIME = 0.3
 """Samples this soon after a touch begins are not scored (filter and footprint build-up) [s]."""
+
+
+@dataclass
+class AfterFault:
+    """What the robot did from the fault time on (one sample per control period)."""
+
+    time: float
+    forces: ForceLimitTracker = field(default_factory=ForceLimitTracker)
+    q_start: FloatArray | None = None
+    last_base: FloatArray | None = None
+    base_travel: float = 0.0
+    base_displacement: float = 0.0
+    max_joint_excursion: float = 0.0
+    first_zero: float | None = None
+    resumed: float | None = None
+    stopped_since: float | None = None
+    zero_periods: int = 0
+    periods: int = 0
+    first_command_zero: bool | None = None
+    max_command: float = 0.0
+    still_since: float | None = None
+
+    def sample(self, t: float, q: FloatArray, command: FloatArray,
+               qd: FloatArray | None = None) -> None:
+        """Travel, excursion, command and motion state at ``t`` [s] (≥ the fault time): ``q``
+        (15) [m, rad], the 15 commanded velocities, the 15 joint rates ``qd``."""
+        moving = qd is not None and float(np.max(np.abs(qd))) > STANDSTILL_SPEED
+        self.still_since = None if moving else (t if self.still_since is None
+                                                else self.still_since)
+        if self.q_start is None:
+            self.q_start = q.copy()
+        if self.last_base is not None:
+            self.base_travel += float(np.linalg.norm(q[:2] - self.last_base))
+        self.last_base = q[:2].copy()
+        self.base_displacement = max(self.base_displacement,
+                                     float(np.linalg.norm(q[:2] - self.q_start[:2])))
+        self.max_joint_excursion = max(self.max_joint_excursion,
+                                       float(np.max(np.abs(q[3:] - self.q_start[3:]))))
+        self.periods += 1
+        zero = not np.any(command)
+        if self.first_command_zero is None:
+            self.first_command_zero = zero
+        self.max_command = max(self.max_command, float(np.max(np.abs(command))))
+        if zero:
+            self.zero_periods += 1
+            self.first_zero = t if self.first_zero is None else self.first_zero
+            self.stopped_since = t if self.stopped_since is None else self.stopped_since
+        else:
+            self.stopped_since = None
+            if self.first_zero is not None and self.resumed is None:
+                self.resumed = t
+
+    def summary(self) -> dict[str, Any]:
+        """JSON part (times relative to the fault time [s]; ``None`` = never)."""
+        def rel(x: float | None) -> float | None:
+            return None if x is None else x - self.time
+        recover: float | None = 0.0
+        if self.first_zero is not None:
+            recover = None if self.resumed is None else self.resumed - self.first_zero
+        return {
+            "base_travel": self.base_travel,
+            "base_displacement": self.base_displacement,
+            "max_joint_excursion": self.max_joint_excursion,
+            "time_to_zero_command": rel(self.first_zero),
+            "time_to_stop": rel(self.stopped_since),
+            "time_to_standstill": rel(self.still_since),
+            "time_to_recover": recover,
+            "zero_command_periods": self.zero_periods,
+            "periods": self.periods,
+            "command_zero_at_fault": self.first_command_zero,
+            "max_command": self.max_command,
+        }
 
 
 @dataclass
@@ -64,7 +149,8 @@ class MetricsRecorder:
     """Collects one sample per control period (module docstring)."""
 
     def __init__(self, kind: str, velocity_limit: float = paper.VELOCITY_LIMIT,
-                 position_ranges: FloatArray | None = None) -> None:
+                 position_ranges: FloatArray | None = None,
+                 fault_time: float | None = None) -> None:
         self.kind = kind
         self.velocity_limit = velocity_limit
         self.position_ranges = position_ranges
@@ -76,6 +162,31 @@ class MetricsRecorder:
         self.violation_kinds: dict[str, int] = {"joint_limit": 0, "dance_band": 0, "velocity": 0}
         self.max_command = 0.0
         self.max_band_deviation = 0.0
+        self.forces = ForceLimitTracker()
+        self.touching: set[tuple[str, str]] = set()
+        self.after = None if fault_time is None else AfterFault(fault_time)
+        self.fault_changes: tuple[float | None, int] = (None, 0)
+        """(sim time [s] of the first sensor message the fault changed, how many it changed)."""
+        self._reader: PersonRobotForces | None = None
+        self._sim: Simulation | None = None
+
+    def watch(self, sim: Simulation) -> None:
+        """Read the person↔robot contact forces of ``sim`` after every physics step (it sets
+        ``sim.on_step``)."""
+        self._sim = sim
+        self._reader = PersonRobotForces(sim.model, sim.person.geom_part)
+        sim.on_step = self._on_step
+
+    def _on_step(self) -> None:
+        assert self._reader is not None and self._sim is not None
+        reader = self._reader
+        parts, links, pairs = reader.read(self._sim.data)
+        forces = {**parts, **links}
+        t = self._sim.time
+        self.forces.add(t, forces, (*reader.parts, *reader.links))
+        self.touching |= pairs
+        if self.after is not None and t >= self.after.time - 1e-9:
+            self.after.forces.add(t, forces, (*reader.parts, *reader.links))
 
     def sample(self, sim: Simulation, command: FloatArray,
                estimates: Mapping[str, ContactState]) -> None:
@@ -114,6 +225,8 @@ class MetricsRecorder:
                 series.force_error.append(
                     abs(float(np.linalg.norm(est.force)) - float(np.linalg.norm(gt.force_link)))
                 )
+        if self.after is not None and t >= self.after.time - 1e-9:
+            self.after.sample(t, q, command, sim.qd)
         self.base_path.append(q[:2].copy())
         torso = next((p.name for p in sim.parts if p.name == "person_torso"), None)
         if torso is not None:
@@ -148,9 +261,37 @@ class MetricsRecorder:
             "max_command": self.max_command,
             "links": {link: self._link_summary(s) for link, s in self.links.items()},
         }
+        if self._reader is not None:
+            out["iso15066"] = self._iso_summary(self.forces)
+        if self.after is not None:
+            after = self.after.summary()
+            if self._reader is not None:
+                after["forces"] = self._iso_summary(self.after.forces)
+            after["fault_time"] = self.after.time
+            after["first_changed_at"], after["messages_changed"] = self.fault_changes
+            out["fault"] = after
         if self.kind == "waltz":
             out["waltz"] = self._waltz_summary()
         return out
+
+    def _iso_summary(self, tracker: ForceLimitTracker) -> dict[str, Any]:
+        """Per person body part and per robot link: peak and sustained force [N] beside the
+        ISO/TS 15066 limits (:func:`~phri_sim.body_forces.limit_report`). A part is held to its
+        own region; a link to the strictest region among the parts it touched during the run
+        (no touch: no region, ok)."""
+        assert self._reader is not None
+        person = {p: limit_report(part_region(p), tracker.peak(p), tracker.sustained(p))
+                  for p in self._reader.parts}
+        links: dict[str, Any] = {}
+        for link in self._reader.links:
+            touched = sorted({p for p, lk in self.touching if lk == link})
+            region = min((part_region(p) for p in touched),
+                         key=lambda r: (r.quasi_static, r.transient), default=None)
+            row = limit_report(region, tracker.peak(link), tracker.sustained(link))
+            row["touched_parts"] = touched
+            links[link] = row
+        ok = all(r["ok"] for r in (*person.values(), *links.values()))
+        return {"person": person, "robot_links": links, "ok": ok}
 
     def _waltz_summary(self) -> dict[str, Any]:
         series = self.links.get(WALTZ_LINK, _LinkSeries())

@@ -18,8 +18,13 @@ scenario's paper values, :mod:`phri_sim.scenarios`) and ``use_sim_time``. Each c
 Nothing depends on the wall clock, so a run is deterministic for a seed. A caller can add nodes
 (``recorder``: a factory called with the context, e.g. one that subscribes every topic for an
 MCAP recording) and follow progress (``progress(sim_time, duration)`` once per simulated second).
+``fault`` / ``fault_time`` inject a sensor fault in the bridge (:mod:`phri_sim.faults`); a frame
+or joint state the fault corrupted is not waited for in step 2 (downstream may refuse it). The
+metrics (:mod:`phri_sim.metrics`) also read the person↔robot contact forces after every physics
+step (:mod:`phri_sim.body_forces`).
 
-Command line: ``python -m phri_sim.runner waltz [--short] [--seed N] [--out metrics.json]``.
+Command line: ``python -m phri_sim.runner waltz [--short] [--seed N] [--out metrics.json]
+[--fault FAULT] [--fault-time T]``.
 """
 
 from __future__ import annotations
@@ -48,6 +53,7 @@ from phri_common.contact import ContactMessageError, msg_to_contact
 from phri_common.records import ContactState
 from phri_description.description import SKIN_LINKS
 from phri_sim.bridge import SimBridgeNode
+from phri_sim.faults import DEFAULT_FAULT_TIME, FAULT_KINDS
 from phri_sim.metrics import MetricsRecorder
 from phri_sim.scenarios import SCENARIOS, Scenario
 
@@ -152,6 +158,17 @@ def _dance_ranges(params: Mapping[str, Any]) -> FloatArray | None:
     return ranges
 
 
+def _metrics(scenario: Scenario, sim: Any, fault_time: float | None) -> MetricsRecorder:
+    """The run's metrics recorder, watching every physics step of ``sim``."""
+    params = scenario.controller_parameters
+    metrics = MetricsRecorder(
+        scenario.metrics, float(params.get("velocity_limit", paper.VELOCITY_LIMIT)),
+        _dance_ranges(params), fault_time=fault_time,
+    )
+    metrics.watch(sim)
+    return metrics
+
+
 class ScenarioRun:
     """One lock-step run of a scenario through the real nodes (module docstring)."""
 
@@ -170,6 +187,8 @@ class ScenarioRun:
         viewer: bool = False,
         recorder: Recorder | None = None,
         progress: Progress | None = None,
+        fault: str = "",
+        fault_time: float = DEFAULT_FAULT_TIME,
     ) -> None:
         if name not in SCENARIOS:
             raise ValueError(f"unknown scenario {name!r}; known: {', '.join(SCENARIOS)}")
@@ -179,13 +198,11 @@ class ScenarioRun:
         )
         self.context = context
         self.progress = progress
-        self.bridge = SimBridgeNode(context=context, parameter_overrides=[
-            Parameter("lockstep", value=True), Parameter("scenario", value=name),
-            Parameter("seed", value=seed), Parameter("skin_rate_hz", value=skin_rate_hz),
-            Parameter("viewer", value=viewer),
-            Parameter("skin_idle_decimation", value=skin_idle_decimation),
-            Parameter("physics_timestep", value=physics_timestep),
-        ])
+        self.bridge = SimBridgeNode(context=context, parameter_overrides=_params({
+            "lockstep": True, "scenario": name, "seed": seed, "skin_rate_hz": skin_rate_hz,
+            "viewer": viewer, "skin_idle_decimation": skin_idle_decimation,
+            "physics_timestep": physics_timestep, "fault": fault, "fault_time": float(fault_time),
+        }))
         self.estimation = _estimation_node(context, sc)
         self.controller = _controller_node(controller, context, sc)
         self.is_stub = controller == "stub"
@@ -206,12 +223,10 @@ class ScenarioRun:
         self.executor = EventsExecutor(context=context)
         for node in (self.bridge, self.estimation, self.controller, self.probe, *self.extra):
             self.executor.add_node(node)
-        self.metrics = MetricsRecorder(
-            sc.metrics, float(sc.controller_parameters.get("velocity_limit", paper.VELOCITY_LIMIT)),
-            _dance_ranges(sc.controller_parameters),
-        )
+        self.metrics = _metrics(sc, self.bridge.sim, float(fault_time) if fault else None)
         self._last_command = np.zeros(15)
         self._fresh_links: set[str] = set(SKIN_LINKS)
+        self._skip_joints = False
         self.wall_time = 0.0
 
     def _on_estimate(self, link: str, msg: PointCloud2) -> None:
@@ -244,7 +259,8 @@ class ScenarioRun:
                 return False
         ctrl = self.controller
         if hasattr(ctrl, "odom_time") and hasattr(ctrl, "arm_time"):
-            return bool(ctrl.odom_time != marks[0] and np.min(ctrl.arm_time) != marks[1])
+            joints = self._skip_joints or np.min(ctrl.arm_time) != marks[1]
+            return bool(ctrl.odom_time != marks[0] and joints)
         return True
 
     def _marks(self) -> tuple[Any, ...]:
@@ -258,7 +274,11 @@ class ScenarioRun:
         bridge.advance(1, clock=False)
         stamp = bridge.stamp_ns
         patch_link = bridge.sim.skins.patch_link
-        self._fresh_links = {patch_link[p] for p in bridge.published_patches}
+        # A frame or joint state an injected fault corrupted this period may be refused
+        # downstream (no contact state, no joint-state update): the lock-step does not wait for it.
+        faulted = bridge.faults.changed_at(bridge.fault_clock)
+        self._fresh_links = {patch_link[p] for p in bridge.published_patches if p not in faulted}
+        self._skip_joints = "joint_states" in faulted
         self.spin_until(lambda: self._inputs_ready(stamp, marks), "sensor data")
         before = dict(bridge.commands_received)
         bridge.publish_clock()
@@ -286,6 +306,8 @@ class ScenarioRun:
                 next_report += 1.0
         self.wall_time = time.perf_counter() - start
         cpu_time = time.process_time() - cpu_start
+        faults = self.bridge.faults
+        self.metrics.fault_changes = (faults.first_change, faults.changes)
         summary = self.metrics.summary()
         summary.update({
             "scenario": self.scenario.name,
@@ -299,6 +321,8 @@ class ScenarioRun:
             "controller": "stub (zero commands)" if self.is_stub else "wholebody_controller",
             "commands_refused": self.bridge.commands_refused,
         })
+        if self.bridge.faults.spec is not None:
+            summary["fault"]["kind"] = self.bridge.faults.spec.kind
         return summary
 
     def close(self) -> None:
@@ -349,6 +373,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--stub", action="store_true", help="zero-command stub controller")
     parser.add_argument("--viewer", action="store_true", help="MuJoCo viewer (needs a display)")
     parser.add_argument("--out", default=None, help="metrics JSON path")
+    parser.add_argument("--fault", choices=FAULT_KINDS, default=None,
+                        help="inject a sensor fault (docs/phri_sim.md, Fault injection)")
+    parser.add_argument("--fault-time", type=float, default=DEFAULT_FAULT_TIME,
+                        help="sim time the fault starts [s] (default 5)")
     args = parser.parse_args(argv)
 
     def report(t: float, total: float) -> None:
@@ -360,6 +388,7 @@ def main(argv: list[str] | None = None) -> None:
         seed=args.seed, skin_rate_hz=args.skin_rate,
         skin_idle_decimation=args.skin_idle_decimation,
         controller="stub" if args.stub else "node", viewer=args.viewer, progress=report,
+        fault=args.fault or "", fault_time=args.fault_time,
     )
     print(json.dumps(metrics, indent=2))
 

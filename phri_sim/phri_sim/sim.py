@@ -24,7 +24,7 @@ below are the interface the bridge, the scenarios and the metrics use; each forw
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import mujoco
@@ -101,6 +101,9 @@ class Simulation:
         self.skins = SimSkins(self.model, self.data, desc.patches, self.config.skin,
                               self.config.seed, self.person.geom_part, self.robot)
         self.watchdog = self._new_watchdog()
+        self.on_step: Callable[[], None] | None = None
+        """Called after every physics step of :meth:`step` (not while settling): metrics that
+        must see every physics state, e.g. peak contact forces."""
         self.reset()
 
     def _new_watchdog(self) -> CommandWatchdog:
@@ -159,6 +162,8 @@ class Simulation:
         for _ in range(n):
             self._apply_controls()
             mujoco.mj_step(self.model, self.data)
+            if self.on_step is not None:
+                self.on_step()
 
     def _apply_controls(self) -> None:
         t = float(self.data.time)

@@ -12,7 +12,9 @@ gives the full-length numbers), with margin for other seeds:
 * waltz (the hold, the first forward step and the step away from the robot): the waist contact
   held ≥ 95 % (runs: 100 %), no force spike (peak ≤ 25 N, runs: 16.7 N), the base follows the
   torso (RMS path error ≤ 5 cm, runs: 1.5–2.4 cm), arms within q_dance ± 0.1 (runs: 0.04);
-* every scenario: zero limit violations (joint limits, q_dance band, speed limit).
+* every scenario: zero limit violations (joint limits, q_dance band, speed limit), and every
+  body part of the person and every robot link within its ISO/TS 15066 region's limits (peak ≤
+  transient, force held 0.5 s ≤ quasi-static; docs/phri_sim.md, "Body-region limits").
 """
 
 from __future__ import annotations
@@ -21,11 +23,17 @@ from typing import Any
 
 import pytest
 
+from phri_sim.body_forces import limit_failures
 from phri_sim.runner import run_scenario
 
 
 def _run(ros_context: Any, name: str, duration: float) -> dict[str, Any]:
-    return run_scenario(name, context=ros_context, duration=duration, seed=1)
+    metrics = run_scenario(name, context=ros_context, duration=duration, seed=1)
+    report = metrics["iso15066"]
+    assert "person_waist" in report["person"] and "left_forearm_link" in report["robot_links"]
+    failures = limit_failures(report)
+    assert not failures and report["ok"], f"ISO/TS 15066 limits exceeded: {failures}"
+    return metrics
 
 
 @pytest.mark.ros

@@ -295,10 +295,12 @@ def test_forged_header_costs_no_stall_and_every_frame_keeps_its_own_stamp(  # ty
     stamps = np.array([msg_to_taxels(m).stamp_ns for m in listener.msgs])
     steps = np.diff(stamps) / 2e6  # in board periods (2 ms)
     # Every frame has its own stamp, spaced by the board's clock: whole periods (a frame lost
-    # under load is a gap of 2 or more; the offset estimate settles a few 0.1 ms in the first
-    # frames), never a shared arrival time.
+    # under load is a gap of 2 or more), never a shared arrival time (a step of ≈ 0). The offset
+    # estimate (smallest arrival − board time) settles a few 0.1 ms in the first frames and may
+    # step down once more when a busy machine first delivers a frame faster: ≤ 1 % of steps.
     assert np.all(steps > 0.5)
-    np.testing.assert_allclose(steps[50:], np.round(steps[50:]), atol=0.2)
+    off_grid = np.abs(steps[50:] - np.round(steps[50:])) > 0.2
+    assert np.count_nonzero(off_grid) <= max(1, len(off_grid) // 100), steps[50:][off_grid]
     gaps = int(np.sum(np.round(steps) - 1))
     # No stall: waiting for the forged 32 KB would have held ≈ 0.7 s of frames back.
     assert np.max(np.diff(listener.times)) < 0.25

@@ -255,6 +255,26 @@ def test_bad_names_and_times_are_refused() -> None:
         f.contact_time[LINKS[0]] = T0  # type: ignore[index]
 
 
+# -- F9 refused input ----------------------------------------------------------------------------
+def test_refused_inputs_are_stale_until_their_next_valid_message() -> None:
+    f = fresh_at(T0)
+    assert f.check(T0).reason is None
+    f.contact_refused(LINKS[1])
+    verdict = f.check(T0)
+    assert verdict.reason == f"{STALE_CONTACTS}: {LINKS[1]}" and verdict.became_stale
+    f.contact_arrived(LINKS[1], T0)
+    assert f.check(T0).reason is None
+    f.joints_refused({JOINTS[0]})
+    assert f.check(T0).reason == STALE_JOINTS
+    f.joints_arrived(JOINTS, T0)
+    f.odom_refused()
+    assert f.check(T0).reason == STALE_ODOMETRY
+    f.odom_arrived(T0)
+    assert f.check(T0).reason is None
+    with pytest.raises(ValueError, match="not one of"):
+        f.contact_refused("elbow")
+
+
 # -- docs ----------------------------------------------------------------------------------------
 def test_docs_list_every_rule_and_reason() -> None:
     """docs/wholebody_controller.md, section "Input freshness", names each rule of the module
@@ -262,7 +282,7 @@ def test_docs_list_every_rule_and_reason() -> None:
     text = DOC.read_text(encoding="utf-8")
     section = text.split("## Input freshness", 1)[1].split("\n## ", 1)[0]
     rules = re.findall(r"^(F\d+)\. ([^:]+):", freshness_module.__doc__ or "", re.MULTILINE)
-    assert [r[0] for r in rules] == [f"F{i}" for i in range(1, 9)]
+    assert [r[0] for r in rules] == [f"F{i}" for i in range(1, 10)]
     missing = [f"{n}. {title}" for n, title in rules
                if f"**{n}. {' '.join(title.split())}**" not in section]
     assert not missing, f"rules missing from the docs: {missing}"

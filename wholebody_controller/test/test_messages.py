@@ -91,3 +91,21 @@ def test_task_state_round_trip_keeps_every_field() -> None:
     assert (msg.header.stamp.sec, msg.header.stamp.nanosec) == (123, 456)
     assert [f.name for f in msg.fields] == list(TASK_STATE_FIELDS)
     assert msg_to_task_state(msg) == expected
+
+
+def test_safety_status_levels() -> None:
+    from diagnostic_msgs.msg import DiagnosticStatus
+
+    from wholebody_controller.contact_safety import ForceGuard, Safety, SafetyConfig
+    from wholebody_controller.messages import safety_status
+
+    guard = ForceGuard(110.0, 220.0, SafetyConfig())
+    guard.update(30.0)
+    ok = safety_status("left_forearm_link", Safety.OK, guard, "wbc")
+    assert ok.level == DiagnosticStatus.OK and ok.name == "wbc: contact safety left_forearm_link"
+    assert {v.key: v.value for v in ok.values}["force_limit_N"] == "110"
+    assert safety_status("l", Safety.CONTACT_LOST, guard, "w").level == DiagnosticStatus.WARN
+    assert safety_status("l", Safety.YIELDING, guard, "w").level == DiagnosticStatus.ERROR
+    guard.update(250.0)
+    status = safety_status("l", Safety.OK, guard, "w")
+    assert status.level == DiagnosticStatus.ERROR and "transient" in status.message

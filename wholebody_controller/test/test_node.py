@@ -106,8 +106,9 @@ def nonzero(msgs: list[Float64MultiArray]) -> bool:
 
 @pytest.mark.ros
 def test_contact_in_command_out_then_stale_contact_gives_zero(harness: Harness) -> None:
-    assert harness.run(lambda: nonzero(harness.left), force=np.array([0.0, 0.0, 12.0]))
-    assert harness.states, "task state published"
+    # The task state is published only once its subscriber is matched: wait for both.
+    assert harness.run(lambda: nonzero(harness.left) and bool(harness.states),
+                       force=np.array([0.0, 0.0, 12.0]))
     state = msg_to_task_state(harness.states[-1])
     assert state["psi"] > 1e-4 and state["in_contact"] == 1.0
     assert len(harness.left[-1].data) == 6

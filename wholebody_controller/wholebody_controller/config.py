@@ -18,8 +18,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from phri_common import paper
+from phri_common.iso15066 import BODY_REGIONS, region_of_link
 from phri_common.paper import Vector6
 from phri_description.description import SKIN_LINKS
+from wholebody_controller.contact_safety import SafetyConfig
 
 SOLVERS: tuple[str, ...] = ("daqp", "osqp")
 
@@ -61,6 +63,17 @@ WHOLE_BODY = AdmittanceGains.of(paper.WHOLE_BODY)
 WALTZ = AdmittanceGains.of(paper.WALTZ)
 
 
+def default_force_limits(link: str) -> tuple[float, float]:
+    """(quasi-static, transient) force limits [N] of a skin link: ISO/TS 15066's for the body
+    region it meets (:data:`phri_common.iso15066.SKIN_LINK_REGIONS`); a link with no mapped region
+    gets the abdomen's, the lowest of the trunk and limbs (110 N / 220 N)."""
+    try:
+        region = region_of_link(link)
+    except KeyError:
+        region = BODY_REGIONS["abdomen"]
+    return region.quasi_static, region.transient
+
+
 @dataclass(frozen=True)
 class LinkTaskConfig:
     """One skin link's interaction task.
@@ -78,6 +91,10 @@ class LinkTaskConfig:
             flattened as 12 numbers (row-major R, then p); ``None`` = locked at activation.
         desired_region: user desired region Ω_d in the link frame as ``(min xyz, max xyz)``
             (no margin added); ``None`` = the region at contact onset plus the margin.
+        force_limit: quasi-static contact force limit F [N] (:mod:`contact_safety`); ``None`` =
+            the ISO/TS 15066 limit of the body region the link meets
+            (:func:`default_force_limits`).
+        transient_force_limit: transient limit [N], ≥ ``force_limit``; ``None`` = the region's.
     """
 
     link: str
@@ -86,8 +103,20 @@ class LinkTaskConfig:
     desired_force: tuple[float, float, float] = (0.0, 0.0, 0.0)
     reference: tuple[float, ...] | None = None
     desired_region: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
+    force_limit: float | None = None
+    transient_force_limit: float | None = None
 
     def __post_init__(self) -> None:
+        limit, transient = default_force_limits(self.link)
+        if self.force_limit is None:
+            object.__setattr__(self, "force_limit", limit)
+        if self.transient_force_limit is None:
+            object.__setattr__(self, "transient_force_limit",
+                               max(transient, float(self.force_limit)))  # type: ignore[arg-type]
+        f, t = float(self.force_limit), float(self.transient_force_limit)  # type: ignore[arg-type]
+        if not (0.0 < f <= t < math.inf):
+            raise ValueError(f"{self.link}: need 0 < force_limit ≤ transient_force_limit < ∞ "
+                             f"[N], got {f} and {t}")
         if self.priority_lock is not None and not 0.0 < self.priority_lock <= 1.0:
             raise ValueError(
                 f"{self.link}: priority_lock must be in (0, 1], got {self.priority_lock}"
@@ -154,6 +183,7 @@ class ControllerConfig:
         velocity_limit: |q̇| bound for every joint and base axis [rad/s] / [m/s] (Table II),
             intersected with the robot's own velocity limits.
         joint_ranges: extra position ranges (intersected with the joint limits).
+        safety: the graded force response and contact gating (:mod:`contact_safety`).
         solver: QP backend, ``"daqp"`` (exact active set, default: faster and exact) or
             ``"osqp"`` (the paper's, warm-started with tight tolerances).
     """
@@ -170,6 +200,7 @@ class ControllerConfig:
     velocity_limit: float = paper.VELOCITY_LIMIT
     joint_ranges: tuple[JointRange, ...] = ()
     solver: str = "daqp"
+    safety: SafetyConfig = field(default_factory=SafetyConfig)
 
     def __post_init__(self) -> None:
         checks = {

@@ -29,6 +29,13 @@ from phri_common.planar import base_to_world
 from phri_common.records import ContactState
 from wholebody_controller.admittance import Admittance
 from wholebody_controller.config import LinkTaskConfig, diag6
+from wholebody_controller.contact_safety import (
+    ForceGuard,
+    RegainBudget,
+    Safety,
+    SafetyConfig,
+    limit_approach,
+)
 from wholebody_controller.linalg3 import cross, matmul, matmul_transpose, rotate
 from wholebody_controller.so3 import Mat9, Vec3, exp_and_left_jacobian, log
 
@@ -197,6 +204,8 @@ class TaskOutput(NamedTuple):
     """ψ_i of (15), or the locked value."""
     in_contact: bool
     values: tuple[float, ...]
+    safety: Safety = Safety.OK
+    """Contact-safety state of the link (:mod:`~wholebody_controller.contact_safety`)."""
 
     @property
     def target(self) -> Array:
@@ -231,8 +240,13 @@ class ContactTask:
     """One skin link's interaction task: its admittance, Algorithm 1 and Ω_d, stepped per cycle."""
 
     def __init__(self, config: LinkTaskConfig, *, k_eta: float, b: float, k_p: float,
-                 psi_thr: float, region_margin: float, dt: float) -> None:
+                 psi_thr: float, region_margin: float, dt: float,
+                 safety: SafetyConfig | None = None) -> None:
         self.config = config
+        self.safety = safety or SafetyConfig()
+        assert config.force_limit is not None and config.transient_force_limit is not None
+        self.guard = ForceGuard(config.force_limit, config.transient_force_limit, self.safety)
+        self.regain = RegainBudget(self.safety)
         self.k_eta, self.b, self.k_p = k_eta, b, k_p
         self.psi_thr, self.region_margin, self.dt = psi_thr, region_margin, dt
         fx, fy, fz = config.desired_force
@@ -253,6 +267,9 @@ class ContactTask:
         """Back to inactive: admittance zero, nothing locked."""
         self.admittance.reset()
         self.life_cycle.reset()
+        self.guard.reset()
+        self.regain.reset()
+        self._last_pos: Vec3 | None = None
         self._point: Vec3 = _ZERO3
         self.jacobian_point: Array = np.zeros(3)
         """ᶦp_η as an array for the Jacobian (8); the last touched centre is held after release,
@@ -297,21 +314,22 @@ class ContactTask:
         self._had_contact = bool(contact.in_contact)
         return rate
 
-    def _wrench(self, contact: ContactState, rot: Mat9,
-                base_yaw: float) -> tuple[list[float], Vec3]:
-        """(10)–(12) plus the manual desired force (base frame → world); also ᶦμ [m]."""
+    def _wrench(self, contact: ContactState, force: Vec3 | None, rot: Mat9, base_yaw: float,
+                desired_scale: float) -> tuple[list[float], Vec3]:
+        """(10)–(12) plus ``desired_scale`` times the manual desired force (base frame → world,
+        gated and faded by :mod:`contact_safety`); also ᶦμ [m]."""
         mu: Vec3 = _ZERO3
         wrench = [0.0] * 6
-        if contact.in_contact:
+        if force is not None:
             if self._desired is not None:
                 lo, hi = contact.region_min.tolist(), contact.region_max.tolist()
                 mu = track_force(lo, hi, *self._desired)
                 if mu == _ZERO3:
                     mu = _ZERO3  # the shared zero: no rotation needed downstream
-            wrench = contact_wrench(contact.force.tolist(), contact.torque.tolist(),
-                                    mu, self.k_eta, rot)
+            wrench = contact_wrench(force, contact.torque.tolist(), mu, self.k_eta, rot)
         fx, fy, fz = self.desired_force
-        if fx != 0.0 or fy != 0.0 or fz != 0.0:
+        if desired_scale > 0.0 and (fx != 0.0 or fy != 0.0 or fz != 0.0):
+            fx, fy, fz = desired_scale * fx, desired_scale * fy, desired_scale * fz
             dx, dy = base_to_world(base_yaw, fx, fy)
             wrench[0] += dx
             wrench[1] += dy
@@ -333,8 +351,58 @@ class ContactTask:
         return (lx + (dx - sx), ly + (dy - sy), lz + (dz - sz), *angular,
                 lx + dx, ly + dy, lz + dz, *angular)
 
+    def _safety(self, force: Vec3 | None, in_contact: bool,
+                pos: Vec3) -> tuple[float, float, Vec3 | None]:
+        """This cycle's contact safety (:mod:`contact_safety`) from the contact force on the link
+        ``force`` [N] (link frame, ``None`` untouched): ``(approach scale s, desired-force scale,
+        n̂ in the link frame or None)``; updates the force guard and the regain budget."""
+        normal = None
+        magnitude = 0.0
+        if force is not None:
+            fx, fy, fz = force
+            magnitude = math.sqrt(fx * fx + fy * fy + fz * fz)
+            if magnitude > 0.0:
+                normal = (fx / magnitude, fy / magnitude, fz / magnitude)
+        was_yielding = self.guard.yielding
+        scale = self.guard.update(magnitude)
+        if was_yielding and not self.guard.yielding:
+            self.admittance.reset()  # the yield is over: a fresh start, no stored push
+            self.life_cycle.reset()
+        gate = True
+        if self.desired_force != _ZERO3:  # only a manual desired force is gated
+            last, self._last_pos = self._last_pos, pos
+            travel = 0.0 if last is None else math.dist(pos, last)
+            gate = self.regain.update(in_contact, travel, self.dt)
+        return scale, scale if gate else 0.0, normal
+
+    def _safety_state(self, scale: float) -> Safety:
+        if self.guard.yielding:
+            return Safety.YIELDING
+        if scale < 1.0:
+            return Safety.FADING
+        if self.regain.exhausted and self.desired_force != _ZERO3:
+            return Safety.CONTACT_LOST
+        return Safety.OK
+
+    def _guarded(self, velocities: tuple[float, ...], rot: Mat9, normal: Vec3 | None,
+                 scale: float) -> tuple[float, ...]:
+        """Target and control velocities after the graded response: while yielding, the contact
+        centre moves along n̂ at the yield speed; while fading, motion towards the contact is
+        scaled by s (:func:`limit_approach`)."""
+        if normal is None:
+            return velocities
+        n = rotate(rot, normal)
+        if self.guard.yielding:
+            v = self.safety.yield_speed
+            away = (v * n[0], v * n[1], v * n[2], 0.0, 0.0, 0.0)
+            return away + away
+        target = limit_approach((velocities[0], velocities[1], velocities[2]), n, scale)
+        control = limit_approach((velocities[6], velocities[7], velocities[8]), n, scale)
+        return (*target, *velocities[3:6], *control, *velocities[9:12])
+
     def step(self, contact: ContactState, rot: Mat9, pos: Vec3, base_yaw: float) -> TaskOutput:
-        """One control step of this link (Algorithm 1 around (8), (10)–(20)).
+        """One control step of this link (Algorithm 1 around (8), (10)–(20), then the contact
+        safety of :mod:`contact_safety`).
 
         Args:
             contact: the link's latest contact state (link frame).
@@ -342,8 +410,11 @@ class ContactTask:
             pos: ⁰p_γi, the link frame's origin in the world [m].
             base_yaw: base heading [rad] (turns the base-frame desired force into the world).
         """
+        in_contact = bool(contact.in_contact)
+        force: Vec3 | None = contact.force.tolist() if in_contact else None
+        scale, desired_scale, normal = self._safety(force, in_contact, pos)
         rate = self._track_contact(contact)
-        wrench, mu = self._wrench(contact, rot, base_yaw)
+        wrench, mu = self._wrench(contact, force, rot, base_yaw, desired_scale)
         adm = self.admittance
         adm.step_f(wrench)  # (13)
         lock = self.config.priority_lock
@@ -362,16 +433,27 @@ class ContactTask:
         else:
             adm.zero_deflection()  # lines 7/10: x_d = x_r = x_γ, so x̃ = 0 by (14)
             phase, velocities = _INACTIVE, _ZERO12
+        if scale < 1.0:
+            velocities = self._guarded(velocities, rot, normal, scale)
+        elif self.regain.exhausted:
+            # Contact lost past the regain budget: this link stops and waits for a touch (no
+            # pull back to the old reference either); a new touch re-activates the task afresh.
+            adm.reset()
+            self.life_cycle.reset()
+            velocities = _ZERO12
         x, v = adm.state_f
         k = self.k_eta
         mx, my, mz = _ZERO3 if mu is _ZERO3 else rotate(rot, mu)
         values = (*velocities, *wrench, *x, *v, *self._point, k * mx, k * my, k * mz)
         thr = self.psi_thr
-        return TaskOutput(self.config.link, phase, psi_raw if psi_raw > thr else thr, psi_raw,
-                          bool(contact.in_contact), values)
+        psi = 1.0 if self.guard.yielding else (psi_raw if psi_raw > thr else thr)
+        safety = _SAFE if scale == 1.0 and not self.regain.exhausted else \
+            self._safety_state(scale)
+        return TaskOutput(self.config.link, phase, psi, psi_raw, in_contact, values, safety)
 
 
 _INACTIVE, _ACTIVATING, _ACTIVE, _DEACTIVATING = (
     Phase.INACTIVE, Phase.ACTIVATING, Phase.ACTIVE, Phase.DEACTIVATING
 )
 _ZERO12: tuple[float, ...] = (0.0,) * 12
+_SAFE = Safety.OK

@@ -23,6 +23,10 @@ F7. Reset on becoming stale: :meth:`~InputFreshness.check` sets ``became_stale``
     inputs go from fresh to stale (the node then resets the tasks and warns), neither at start-up
     (never fresh yet) nor again while they stay stale.
 F8. Recovery: the first check with every input fresh again is fresh.
+F9. Refused input: an input the node refused as bad (non-finite, physically impossible: a contact
+    force above ``max_contact_force``, a joint outside its limits, an odometry jump) counts as
+    never received until its next valid message — the cycle after a refusal commands zero and
+    resets the tasks (F7), the next good message recovers (F8).
 """
 
 from __future__ import annotations
@@ -129,6 +133,25 @@ class InputFreshness:
     def odom_arrived(self, now: float) -> None:
         """Valid odometry arrived at ``now`` [s]."""
         self._odom_time = _require_time(now)
+
+    # -- refusals (F9) --------------------------------------------------------------------------
+    def contact_refused(self, link: str) -> None:
+        """A contact state of ``link`` was refused: stale until the next valid one (F9)."""
+        if link not in self._contact_time:
+            raise ValueError(f"link = {link!r}: not one of {list(self._contact_time)}")
+        self._contact_time[link] = NEVER
+
+    def joints_refused(self, names: Collection[str]) -> None:
+        """A joint state naming ``names`` was refused: those joints are stale until reported
+        valid again (F9); a refused message whose names are unreadable should pass all joints."""
+        times = self._joint_time
+        for i, joint in enumerate(self._joints):
+            if joint in names:
+                times[i] = NEVER
+
+    def odom_refused(self) -> None:
+        """Odometry was refused: stale until the next valid message (F9)."""
+        self._odom_time = NEVER
 
     # -- queries -------------------------------------------------------------------------------
     @property

@@ -19,6 +19,7 @@ import struct
 from collections.abc import Sequence
 
 import numpy as np
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 from numpy.typing import NDArray
@@ -28,6 +29,7 @@ from std_msgs.msg import Float64MultiArray, Header, MultiArrayDimension
 from phri_common.cloud import cloud_records, point_fields, record_dtype
 from phri_common.planar import yaw_from_quaternion
 from phri_common.stamps import ns_to_stamp
+from wholebody_controller.contact_safety import ForceGuard, Safety
 from wholebody_controller.contact_task import (
     CONTROL,
     DEFLECTION,
@@ -37,6 +39,7 @@ from wholebody_controller.contact_task import (
     WRENCH,
     TaskOutput,
 )
+from wholebody_controller.input_checks import InputError
 
 Array = NDArray[np.float64]
 
@@ -65,10 +68,6 @@ TASK_STATE_FIELDS: tuple[str, ...] = tuple(_STATE_DTYPE.names or ())
 _STATE_FIELDS = point_fields(_STATE_DTYPE)
 _STATE_PACK = struct.Struct(f"<{len(TASK_STATE_FIELDS) - 2}dBB")
 assert _STATE_PACK.size == _STATE_DTYPE.itemsize
-
-
-class InputError(ValueError):
-    """An input message is malformed or holds non-finite values."""
 
 
 def command_to_twist(command: Array) -> Twist:
@@ -167,3 +166,26 @@ def msg_to_task_state(msg: PointCloud2) -> dict[str, float]:
     if missing:
         raise InputError(f"task state lacks fields {missing}")
     return {name: float(records[0][name]) for name in TASK_STATE_FIELDS}
+
+
+def safety_status(link: str, safety: Safety, guard: ForceGuard,
+                  node_name: str) -> DiagnosticStatus:
+    """One link's contact safety as a diagnostic status: ERROR while yielding at the force limit
+    or once the transient limit was exceeded, WARN after a contact loss stopped the desired
+    force, OK otherwise; values: the state, the peak force and both limits [N]."""
+    level, message = DiagnosticStatus.OK, "ok"
+    if safety is Safety.FADING:
+        message = "contact force above the fade start: approach and desired force fading"
+    elif safety is Safety.CONTACT_LOST:
+        level, message = DiagnosticStatus.WARN, "contact lost: desired force stopped"
+    if safety is Safety.YIELDING:
+        level, message = DiagnosticStatus.ERROR, "contact force at its limit: yielding"
+    if guard.transient_exceeded:
+        level = DiagnosticStatus.ERROR
+        message = f"transient force limit exceeded ({guard.peak:.1f} N); {message}"
+    values = {"state": safety.name, "peak_force_N": f"{guard.peak:.3f}",
+              "force_limit_N": f"{guard.limit:g}",
+              "transient_force_limit_N": f"{guard.transient_limit:g}"}
+    return DiagnosticStatus(
+        level=level, name=f"{node_name}: contact safety {link}", message=message,
+        hardware_id=link, values=[KeyValue(key=k, value=v) for k, v in values.items()])

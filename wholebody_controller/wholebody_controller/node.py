@@ -18,13 +18,15 @@ deterministic on a loaded machine.
 from __future__ import annotations
 
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
+from numpy.typing import NDArray
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import JointState, PointCloud2
@@ -36,14 +38,22 @@ from phri_common.params import ParamValue
 from phri_common.records import ContactState
 from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
+from phri_common.stamps import ns_to_stamp
+from wholebody_controller.contact_safety import Safety
 from wholebody_controller.controller import KinematicsModel, WholeBodyController
 from wholebody_controller.freshness import FreshnessConfig, InputFreshness
-from wholebody_controller.messages import (
+from wholebody_controller.input_checks import (
     InputError,
+    check_contact_force,
+    check_joint_positions,
+    check_odometry_jump,
+)
+from wholebody_controller.messages import (
     arm_command,
     command_to_twist,
     joint_positions,
     odom_to_base,
+    safety_status,
     task_state_to_msg,
 )
 from wholebody_controller.parameters import (
@@ -80,8 +90,10 @@ class WholeBodyControllerNode(Node):
         *,
         kinematics: KinematicsModel | None = None,
         node_name: str = "wholebody_controller",
+        clock_ns: Callable[[], int] | None = None,
         **kwargs: Any,
     ) -> None:
+        """``clock_ns`` replaces the node clock [ns] (tests drive the cycle by hand with it)."""
         super().__init__(node_name, **kwargs)
         self.kinematics = kinematics if kinematics is not None else default_kinematics()
         joints = list(self.kinematics.joint_names)
@@ -100,17 +112,27 @@ class WholeBodyControllerNode(Node):
                                         freshness_config(self.params))
         self.controller = WholeBodyController(self.kinematics, self._config(self.params))
 
-        self._node_clock = self.get_clock()
+        node_clock = self.get_clock()
+        self.clock_ns: Callable[[], int] = clock_ns or (lambda: node_clock.now().nanoseconds)
+        """The node clock [ns] (see the module docstring)."""
         # Latest inputs.
         self.contacts: dict[str, ContactState] = {}
         self.arm_q = np.zeros(12)
         self.base_q = np.zeros(3)
+        self._last_odom: list[float] | None = None  # last odometry received, refused or not
+        limits = np.asarray(self.kinematics.position_limits, dtype=np.float64)
+        self.joint_limits = {name: (float(limits[i, 0]), float(limits[i, 1]))
+                             for i, name in enumerate(joints) if name in self.arm_joints}
+        self.safety: dict[str, Safety] = dict.fromkeys(self.links, Safety.OK)
         # Counters (diagnostics and tests).
         self.rejected_inputs = 0
         self.qp_failures = 0
         self.zero_cycles = 0
         self.good_cycles = 0
+        self._create_interfaces()
 
+    def _create_interfaces(self) -> None:
+        """Publishers, subscriptions, services and timers (see the module docstring)."""
         self.cmd_pub = self.create_publisher(Twist, "/cmd_vel", 10)
         self.left_pub = self.create_publisher(
             Float64MultiArray, "left/forward_velocity_controller/commands", 10
@@ -124,16 +146,18 @@ class WholeBodyControllerNode(Node):
         for link in self.links:
             self.create_subscription(
                 PointCloud2, f"contacts/{link}",
-                lambda msg, link=link: self._on_contact(link, msg), qos_profile_sensor_data,
+                lambda msg, link=link: self.on_contact(link, msg), qos_profile_sensor_data,
             )
-        self.create_subscription(JointState, "/joint_states", self._on_joints,
+        self.create_subscription(JointState, "/joint_states", self.on_joints,
                                  qos_profile_sensor_data)
-        self.create_subscription(Odometry, "/odom", self._on_odom, qos_profile_sensor_data)
+        self.create_subscription(Odometry, "/odom", self.on_odom, qos_profile_sensor_data)
         self.create_service(Trigger, "~/record_q_dance", self._record_q_dance)
         self.create_service(Trigger, "~/release_q_dance", self._release_q_dance)
         self.create_service(Trigger, "~/reset", self._reset)
+        self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         period = 1.0 / float(self.params["rate_hz"])
         self.timer = self.create_timer(period, self.tick)
+        self.diag_timer = self.create_timer(1.0, self.publish_diagnostics)
 
     # -- parameters -----------------------------------------------------------------------------
     def _config(self, values: dict[str, ParamValue]) -> Any:
@@ -149,7 +173,7 @@ class WholeBodyControllerNode(Node):
     # -- inputs ---------------------------------------------------------------------------------
     def now_s(self) -> float:
         """The node clock [s] (simulation time under ``use_sim_time``; see the module docstring)."""
-        return self._node_clock.now().nanoseconds * 1e-9
+        return self.clock_ns() * 1e-9
 
     @property
     def odom_time(self) -> float:
@@ -165,34 +189,44 @@ class WholeBodyControllerNode(Node):
         self.rejected_inputs += 1
         self.get_logger().warning(f"refused {what}: {err}", throttle_duration_sec=1.0)
 
-    def _on_contact(self, link: str, msg: PointCloud2) -> None:
+    def on_contact(self, link: str, msg: PointCloud2) -> None:
         try:
             state = msg_to_contact(msg)
             if state.link != link:
                 raise InputError(f"frame_id {state.link!r} on the topic of {link!r}")
+            check_contact_force(link, state.force.tolist(),
+                                float(self.params["max_contact_force"]))
         except (ContactMessageError, InputError) as err:
             self._refuse(f"contact state of {link}", err)
+            self.freshness.contact_refused(link)  # F9
             return
         self.contacts[link] = state
         self.freshness.contact_arrived(link, self.now_s())
 
-    def _on_joints(self, msg: JointState) -> None:
+    def on_joints(self, msg: JointState) -> None:
         try:
             positions = joint_positions(msg)
+            check_joint_positions(positions, self.joint_limits,
+                                  float(self.params["joint_limit_margin"]))
         except InputError as err:
             self._refuse("joint state", err)
+            self.freshness.joints_refused(set(msg.name) or set(self.arm_joints))  # F9
             return
         for i, name in enumerate(self.arm_joints):
             if name in positions:
                 self.arm_q[i] = positions[name]
         self.freshness.joints_arrived(positions.keys(), self.now_s())
 
-    def _on_odom(self, msg: Odometry) -> None:
+    def on_odom(self, msg: Odometry) -> None:
         try:
-            self.base_q = odom_to_base(msg)
+            base = odom_to_base(msg)
+            previous, self._last_odom = self._last_odom, base.tolist()
+            check_odometry_jump(previous, self._last_odom, float(self.params["max_odom_jump"]))
         except InputError as err:
             self._refuse("odometry", err)
+            self.freshness.odom_refused()  # F9
             return
+        self.base_q = base
         self.freshness.odom_arrived(self.now_s())
 
     # -- services -------------------------------------------------------------------------------
@@ -225,15 +259,18 @@ class WholeBodyControllerNode(Node):
     # -- control cycle --------------------------------------------------------------------------
     def publish_zero(self) -> None:
         """Zero base twist and zero arm velocities."""
-        zero = np.zeros(15)
-        self.cmd_pub.publish(command_to_twist(zero))
-        self.left_pub.publish(arm_command(zero[3:9], self.left_joints))
-        self.right_pub.publish(arm_command(zero[9:15], self.right_joints))
+        self.publish_command(np.zeros(15))
+
+    def publish_command(self, command: NDArray[np.float64]) -> None:
+        """The base twist (base frame) and both arms' joint velocities of ``command`` (15)."""
+        self.cmd_pub.publish(command_to_twist(command))
+        self.left_pub.publish(arm_command(command[3:9], self.left_joints))
+        self.right_pub.publish(arm_command(command[9:15], self.right_joints))
 
     def tick(self) -> None:
         """One control cycle (timer callback)."""
         assert self.controller is not None
-        now_ns = self._node_clock.now().nanoseconds
+        now_ns = self.clock_ns()
         verdict = self.freshness.check(now_ns * 1e-9)
         if verdict.reason is not None:
             if verdict.became_stale:
@@ -247,16 +284,16 @@ class WholeBodyControllerNode(Node):
         try:
             result = self.controller.step(q, self.contacts)
         except (QPError, ValueError, np.linalg.LinAlgError) as err:
+            # Reset what caused it (the tasks' admittance state): the next good cycle commands.
+            self.controller.reset()
             self.qp_failures += 1
             self.zero_cycles += 1
-            self.get_logger().error(f"control step failed: {err}; zero command",
+            self.get_logger().error(f"control step failed: {err}; tasks reset, zero command",
                                     throttle_duration_sec=1.0)
             self.publish_zero()
             return
-        command = result.command
-        self.cmd_pub.publish(command_to_twist(command))
-        self.left_pub.publish(arm_command(command[3:9], self.left_joints))
-        self.right_pub.publish(arm_command(command[9:15], self.right_joints))
+        self._track_safety(result.tasks)
+        self.publish_command(result.command)
         frame = str(self.params["world_frame"])
         for i, task in enumerate(result.tasks):
             pub = self.state_pubs[task.link]
@@ -265,6 +302,26 @@ class WholeBodyControllerNode(Node):
                 error = result.tracking_errors[i]
                 pub.publish(task_state_to_msg(task, error, now_ns, frame))
         self.good_cycles += 1
+
+    def _track_safety(self, tasks: Sequence[Any]) -> None:
+        """Publish diagnostics at once when a link's contact-safety state changes."""
+        changed = False
+        for task in tasks:
+            if self.safety.get(task.link) is not task.safety:
+                self.safety[task.link] = task.safety
+                changed = True
+        if changed:
+            self.publish_diagnostics()
+
+    def publish_diagnostics(self) -> None:
+        """Per-link contact safety on ``/diagnostics`` (1 Hz and on every change)."""
+        assert self.controller is not None
+        name = self.get_name()
+        statuses = [safety_status(task.config.link, self.safety.get(task.config.link, Safety.OK),
+                                  task.guard, name) for task in self.controller.tasks]
+        msg = DiagnosticArray(status=statuses)
+        msg.header.stamp = ns_to_stamp(self.clock_ns())
+        self.diag_pub.publish(msg)
 
     def destroy_node(self) -> None:
         """Send zero velocity, then tear down."""

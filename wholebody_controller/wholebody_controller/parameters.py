@@ -20,7 +20,9 @@ from wholebody_controller.config import (
     ControllerConfig,
     LinkTaskConfig,
     dance_ranges,
+    default_force_limits,
 )
+from wholebody_controller.contact_safety import SafetyConfig
 
 LINKS_PARAM = ParamSpec(
     "links", list(SKIN_LINKS),
@@ -59,15 +61,39 @@ GLOBAL_PARAMS: list[ParamSpec] = [
               1e-3, 10.0),
     ParamSpec("odom_timeout", 0.1, "odometry older than this → zero command", "s", 1e-3, 10.0),
     ParamSpec("world_frame", "odom", "frame_id of the task-state messages", read_only=True),
+    # Contact safety (issue 11; docs: "Contact safety").
+    ParamSpec("force_fade_start", SafetyConfig.fade_start,
+              "fraction of a link's force_limit where desired force and approach start to fade",
+              "-", 0.0, 0.99),
+    ParamSpec("force_reset_ratio", SafetyConfig.reset_ratio,
+              "fraction of force_limit below which a yielding link resumes", "-", 0.01, 1.0),
+    ParamSpec("yield_speed", SafetyConfig.yield_speed,
+              "speed of a contact centre away from a contact at its force_limit", "m/s",
+              0.0, 1.0),
+    ParamSpec("regain_distance", SafetyConfig.regain_distance,
+              "link travel allowed without contact under a desired force", "m", 0.0, 1.0),
+    ParamSpec("regain_time", SafetyConfig.regain_time,
+              "time allowed without contact under a desired force", "s", 0.0, 60.0),
+    ParamSpec("max_contact_force", 5000.0,
+              "contact states with a larger |force| are refused as impossible", "N",
+              1.0, 1e6),
+    ParamSpec("joint_limit_margin", 0.05,
+              "joint states beyond the joint limits by more than this are refused", "rad",
+              0.0, 1.0),
+    ParamSpec("max_odom_jump", 0.5,
+              "odometry whose position jumps farther between two messages is refused", "m",
+              1e-3, 100.0),
 ]
 
 LINK_SUFFIXES: tuple[str, ...] = (
-    "inertia", "damping", "stiffness", "priority_lock", "desired_force"
+    "inertia", "damping", "stiffness", "priority_lock", "desired_force", "force_limit",
+    "transient_force_limit",
 )
 
 
 def link_param_specs(link: str) -> list[ParamSpec]:
     """The per-link parameters ``<link>.inertia`` … for one link."""
+    limit, transient = default_force_limits(link)
     return [
         ParamSpec(f"{link}.inertia", list(paper.CENTRING.inertia),
                   "admittance inertia Λ diagonal (x y z rx ry rz)",
@@ -83,6 +109,12 @@ def link_param_specs(link: str) -> list[ParamSpec]:
         ParamSpec(f"{link}.desired_force", [0.0, 0.0, 0.0],
                   "force the link exerts, base frame (waltz: 0 -10 0 on the left forearm)", "N",
                   -1000.0, 1000.0, length=3),
+        ParamSpec(f"{link}.force_limit", limit,
+                  "quasi-static contact force limit (ISO/TS 15066 region of the link): fade, "
+                  "then yield", "N", 1.0, 1e4),
+        ParamSpec(f"{link}.transient_force_limit", transient,
+                  "transient contact force limit (reported when exceeded), ≥ force_limit", "N",
+                  1.0, 2e4),
     ]
 
 
@@ -95,6 +127,38 @@ PARAMS: list[ParamSpec] = [
 def _six(values: Any) -> tuple[float, float, float, float, float, float]:
     v = [float(x) for x in values]
     return (v[0], v[1], v[2], v[3], v[4], v[5])
+
+
+def _link_config(values: Mapping[str, Any], link: str) -> LinkTaskConfig:
+    lock = float(values[f"{link}.priority_lock"])
+    force = [float(f) for f in values[f"{link}.desired_force"]]
+    limit, transient = (float(values[f"{link}.{n}"])
+                        for n in ("force_limit", "transient_force_limit"))
+    if transient < limit:
+        raise ValueError(f"parameter '{link}.transient_force_limit' = {transient} N must be ≥ "
+                         f"'{link}.force_limit' = {limit} N")
+    return LinkTaskConfig(
+        link=link,
+        admittance=AdmittanceGains(
+            inertia=_six(values[f"{link}.inertia"]),
+            damping=_six(values[f"{link}.damping"]),
+            stiffness=_six(values[f"{link}.stiffness"]),
+        ),
+        priority_lock=lock if lock > 0.0 else None,
+        desired_force=(force[0], force[1], force[2]),
+        force_limit=limit,
+        transient_force_limit=transient,
+    )
+
+
+def _safety_config(values: Mapping[str, Any]) -> SafetyConfig:
+    return SafetyConfig(
+        fade_start=float(values["force_fade_start"]),
+        reset_ratio=float(values["force_reset_ratio"]),
+        yield_speed=float(values["yield_speed"]),
+        regain_distance=float(values["regain_distance"]),
+        regain_time=float(values["regain_time"]),
+    )
 
 
 def config_from_values(
@@ -113,27 +177,11 @@ def config_from_values(
     solver = str(values["solver"])
     if solver not in ("daqp", "osqp"):
         raise ValueError(f"parameter 'solver' refused value {solver!r}: allowed daqp, osqp")
-    tasks = []
-    for link in links:
-        lock = float(values[f"{link}.priority_lock"])
-        force = [float(f) for f in values[f"{link}.desired_force"]]
-        tasks.append(
-            LinkTaskConfig(
-                link=link,
-                admittance=AdmittanceGains(
-                    inertia=_six(values[f"{link}.inertia"]),
-                    damping=_six(values[f"{link}.damping"]),
-                    stiffness=_six(values[f"{link}.stiffness"]),
-                ),
-                priority_lock=lock if lock > 0.0 else None,
-                desired_force=(force[0], force[1], force[2]),
-            )
-        )
     ranges = ()
     if bool(values["q_dance_enabled"]):
         ranges = dance_ranges(arm_joints, list(values["q_dance"]), float(values["q_dance_range"]))
     return ControllerConfig(
-        links=tuple(tasks),
+        links=tuple(_link_config(values, link) for link in links),
         k_eta=float(values["k_eta"]),
         b=float(values["b"]),
         k_p=float(values["k_p"]),
@@ -145,4 +193,5 @@ def config_from_values(
         velocity_limit=float(values["velocity_limit"]),
         joint_ranges=ranges,
         solver=solver,
+        safety=_safety_config(values),
     )

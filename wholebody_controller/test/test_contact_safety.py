@@ -1,0 +1,206 @@
+"""Contact safety (issue 11): the graded response to the contact force against the body region's
+limit, contact-gated desired force with a bounded regain, in the pure pieces, in one task and in
+closed loop with a compliant hand."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from wbc_rotations import exp_rotvec
+
+from phri_common.iso15066 import SKIN_LINK_REGIONS
+from phri_common.records import ContactState
+from phri_description.description import SKIN_LINKS
+from wholebody_controller.config import WALTZ, AdmittanceGains, ControllerConfig, LinkTaskConfig
+from wholebody_controller.contact_safety import (
+    ForceGuard,
+    RegainBudget,
+    Safety,
+    SafetyConfig,
+    approach_scale,
+    limit_approach,
+)
+from wholebody_controller.contact_task import ContactTask
+from wholebody_controller.controller import KinematicsModel, WholeBodyController
+
+LINK = "left_forearm_link"
+ROT = exp_rotvec(np.array([0.3, -0.5, 1.1]))
+POS = np.array([0.4, 0.2, 1.1])
+CENTER = np.array([-0.2, 0.01, 0.05])
+
+
+# -- pure pieces ----------------------------------------------------------------------------------
+def test_approach_scale_is_one_then_linear_then_zero() -> None:
+    assert approach_scale(0.0, 110.0, 0.5) == 1.0
+    assert approach_scale(55.0, 110.0, 0.5) == 1.0
+    assert approach_scale(82.5, 110.0, 0.5) == pytest.approx(0.5)
+    assert approach_scale(110.0, 110.0, 0.5) == 0.0
+    assert approach_scale(1e9, 110.0, 0.5) == 0.0
+
+
+unit = st.lists(st.floats(-1.0, 1.0), min_size=3, max_size=3).filter(
+    lambda v: math.hypot(*v) > 1e-3)
+
+
+@given(v=st.lists(st.floats(-2.0, 2.0), min_size=3, max_size=3), n=unit,
+       s=st.floats(0.0, 1.0))
+def test_limit_approach_only_shrinks_the_part_towards_the_contact(
+        v: list[float], n: list[float], s: float) -> None:
+    normal = np.array(n) / np.linalg.norm(n)
+    out = np.array(limit_approach(tuple(v), tuple(normal), s))  # type: ignore[arg-type]
+    along, along_out = float(np.dot(v, normal)), float(out @ normal)
+    tangent, tangent_out = np.array(v) - along * normal, out - along_out * normal
+    np.testing.assert_allclose(tangent_out, tangent, atol=1e-12)
+    if along >= 0.0:
+        assert along_out == pytest.approx(along)
+    else:
+        assert along_out == pytest.approx(s * along, abs=1e-12)
+
+
+def test_force_guard_yields_at_the_limit_with_hysteresis() -> None:
+    guard = ForceGuard(110.0, 220.0, SafetyConfig(fade_start=0.5, reset_ratio=0.5))
+    assert guard.update(50.0) == 1.0 and not guard.yielding
+    assert 0.0 < guard.update(100.0) < 1.0 and not guard.yielding
+    assert guard.update(110.0) == 0.0 and guard.yielding
+    assert guard.update(60.0) == 0.0 and guard.yielding  # above r·F = 55 N: still yielding
+    assert guard.update(54.0) == 1.0 and not guard.yielding
+    assert guard.peak == 110.0 and not guard.transient_exceeded
+    guard.update(230.0)
+    assert guard.transient_exceeded
+    with pytest.raises(ValueError, match="transient"):
+        ForceGuard(110.0, 100.0, SafetyConfig())
+
+
+def test_regain_budget_bounds_distance_and_time() -> None:
+    budget = RegainBudget(SafetyConfig(regain_distance=0.15, regain_time=2.0))
+    assert budget.update(False, 0.1, 0.01) and budget.update(False, 0.04, 0.01)
+    assert not budget.update(False, 0.02, 0.01)  # 0.16 m > 0.15 m
+    assert not budget.update(False, 0.0, 0.01)  # latched until a touch
+    assert budget.update(True, 0.0, 0.01)
+    assert all(budget.update(False, 0.0, 0.01) for _ in range(200))  # 2.00 s
+    assert not budget.update(False, 0.0, 0.01)
+
+
+def test_safety_config_refusals_name_the_field() -> None:
+    with pytest.raises(ValueError, match=r"fade_start = 1\.0 is out of range"):
+        SafetyConfig(fade_start=1.0)
+    with pytest.raises(ValueError, match="force_limit"):
+        LinkTaskConfig(LINK, force_limit=300.0, transient_force_limit=200.0)
+
+
+def test_every_skin_link_of_the_description_has_a_body_region() -> None:
+    assert set(SKIN_LINK_REGIONS) == set(SKIN_LINKS)
+
+
+def test_default_limits_are_the_regions_of_iso_ts_15066() -> None:
+    assert (LinkTaskConfig(LINK).force_limit, LinkTaskConfig(LINK).transient_force_limit) == (
+        110.0, 220.0)  # abdomen: the partner's waist
+    assert LinkTaskConfig("right_forearm_link").force_limit == 140.0  # hands
+
+
+# -- one task -------------------------------------------------------------------------------------
+def make_task(**kwargs: object) -> ContactTask:
+    return ContactTask(LinkTaskConfig(LINK, **kwargs),  # type: ignore[arg-type]
+                       k_eta=200.0, b=4.0, k_p=5.0, psi_thr=1e-4, region_margin=0.01, dt=0.01)
+
+
+def press(force_world: np.ndarray, k: int) -> ContactState:
+    return ContactState(LINK, k, True, CENTER, ROT.T @ force_world, np.zeros(3), CENTER - 0.01,
+                        CENTER + 0.01, 10)
+
+
+def step(task: ContactTask, state: ContactState, pos: np.ndarray = POS) -> object:
+    return task.step(state, ROT.ravel().tolist(), pos.tolist(), 0.0)
+
+
+def test_a_push_at_the_limit_makes_the_link_yield_along_the_push() -> None:
+    task = make_task()
+    push = np.array([0.0, 0.0, -1.0])  # the person pushes the link down
+    out = step(task, press(50.0 * push, 0))
+    assert out.safety is Safety.OK  # type: ignore[attr-defined]
+    out = step(task, press(120.0 * push, 1))
+    assert out.safety is Safety.YIELDING and out.psi == 1.0  # type: ignore[attr-defined]
+    np.testing.assert_allclose(out.target, [0, 0, -0.15, 0, 0, 0], atol=1e-12)  # type: ignore
+    out = step(task, press(60.0 * push, 2))
+    assert out.safety is Safety.YIELDING  # type: ignore[attr-defined]
+    out = step(task, press(40.0 * push, 3))
+    assert out.safety is Safety.OK  # type: ignore[attr-defined]
+
+
+def test_desired_force_acts_only_in_contact_within_the_regain_budget() -> None:
+    task = make_task(priority_lock=1.0, desired_force=(0.0, -10.0, 0.0), admittance=WALTZ)
+    touched = press(np.array([0.0, 10.0, 0.0]), 0)
+    out = step(task, touched)
+    assert out.wrench[1] == pytest.approx(0.0, abs=1e-9)  # type: ignore[attr-defined]
+    # Contact lost: the desired force keeps acting while the link has moved < 0.15 m.
+    pos = POS.copy()
+    for k in range(1, 300):
+        pos = pos + np.array([0.0, -0.002, 0.0])  # the link follows the force at 0.2 m/s
+        out = step(task, ContactState.no_contact(LINK, k), pos)
+        if out.safety is Safety.CONTACT_LOST:  # type: ignore[attr-defined]
+            break
+    travelled = float(np.linalg.norm(pos - POS))
+    assert 0.14 < travelled <= 0.152, travelled
+    assert out.wrench[1] == 0.0  # type: ignore[attr-defined]
+    # A new touch re-arms it.
+    out = step(task, touched, pos)
+    assert out.safety is Safety.OK and out.wrench[1] < -9.0 + 10.0  # type: ignore[attr-defined]
+
+
+# -- closed loop with a compliant hand ----------------------------------------------------------
+def hand_push(kin: KinematicsModel, force_limit: float) -> tuple[list[float], list[Safety]]:
+    """A hand whose target goes 0.4 m into the left forearm at 0.12 m/s through a 20 kN/m spring
+    (2 kN and more on a rigid link), then withdraws; an admittance too stiff (D = 3000 N·s/m) to
+    give way fast enough on its own. Returns the contact force and the safety state per cycle."""
+    gains = AdmittanceGains(WALTZ.inertia, (3000.0,) * 3 + WALTZ.damping[3:], WALTZ.stiffness)
+    link = LinkTaskConfig(LINK, gains, force_limit=force_limit,
+                          transient_force_limit=max(220.0, force_limit))
+    ctl = WholeBodyController(kin, ControllerConfig(links=(link,)))
+    q = np.array([0.0, 0.0, 0.0, 0.3, -1.2, 1.5, -1.0, -1.57, 0.0,
+                  -0.3, -1.9, -1.5, -1.0, 1.57, 0.0])
+    kin.update(q)
+    rot, pos = kin.link_pose(LINK)
+    surface = rot @ CENTER + pos
+    direction = np.array([0.0, 1.0, 0.0])
+    forces, states = [], []
+    for k in range(600):
+        kin.update(q)
+        rot, pos = kin.link_pose(LINK)
+        anchor = surface + direction * min(0.12 * k * 0.01, 0.4) if k <= 450 else surface
+        force = max(0.0, 20_000.0 * float((anchor - (rot @ CENTER + pos)) @ direction))
+        forces.append(force)
+        contacts = {}
+        if force > 0.0:
+            contacts[LINK] = ContactState(LINK, k, True, CENTER, rot.T @ (force * direction),
+                                          np.zeros(3), CENTER - 0.01, CENTER + 0.01, 10)
+        res = ctl.step(q, contacts)
+        states.append(res.tasks[0].safety)
+        q = q + 0.01 * res.qdot
+    return forces, states
+
+
+def test_a_hand_pushing_to_2_kN_is_yielded_to_below_the_transient_limit(
+        kin: KinematicsModel) -> None:
+    forces, states = hand_push(kin, 110.0)
+    assert max(forces) >= 110.0  # the limit was reached: the test exercises the yield
+    assert max(forces) < 220.0, max(forces)
+    assert Safety.YIELDING in states and states[-1] is Safety.OK
+    # Baseline: the same robot without a usable limit is pressed far beyond it.
+    unguarded, _ = hand_push(kin, 1e5)
+    assert max(unguarded) > 400.0, max(unguarded)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.floats(0.0, 5000.0), min_size=5, max_size=40))
+def test_never_commands_towards_a_contact_at_or_above_the_limit(forces: list[float]) -> None:
+    task = make_task()
+    push = np.array([0.3, -0.4, -0.866])
+    push /= np.linalg.norm(push)
+    for k, f in enumerate(forces):
+        out = step(task, press(f * push, k))
+        if task.guard.yielding:
+            assert float(np.dot(out.target[0:3], push)) > 0.0  # type: ignore[attr-defined]

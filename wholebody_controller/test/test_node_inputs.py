@@ -1,0 +1,152 @@
+"""The controller node's input boundary, cycle by cycle (issue 11): physically impossible inputs
+are refused (zero command, a clear error) and the next good message recovers; a failed QP never
+wedges the controller; under fuzzed inputs no command is ever non-finite or over the limits.
+
+The node runs with a hand-driven clock and its callbacks and ``tick`` are called directly, so
+every assertion is about one precise control period."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from nav_msgs.msg import Odometry
+from numpy.typing import NDArray
+from sensor_msgs.msg import JointState
+from wbc_fake_kinematics import FakeKinematics
+
+from phri_common.contact import contact_to_msg
+from phri_common.records import ContactState
+from wholebody_controller.node import WholeBodyControllerNode
+from wholebody_controller.qp import QPError
+
+pytestmark = pytest.mark.ros
+
+ARM = [0.3, -1.2, 1.5, -1.0, -1.57, 0.0, -0.3, 1.2, -1.5, 1.0, 1.57, 0.0]
+CENTER = np.array([-0.15, 0.0, 0.05])
+PUSH = np.array([0.0, 0.0, 12.0])
+PERIOD_NS = 10_000_000
+
+
+class RecordingNode(WholeBodyControllerNode):
+    """The node with its commands recorded instead of only published."""
+
+    def __init__(self, context: object) -> None:
+        self.now_ns = 1_000_000_000
+        self.commands: list[NDArray[np.float64]] = []
+        super().__init__(kinematics=FakeKinematics(), context=context,
+                         clock_ns=lambda: self.now_ns)
+
+    def publish_command(self, command: NDArray[np.float64]) -> None:
+        self.commands.append(np.array(command))
+        super().publish_command(command)
+
+    def feed(self, force: NDArray[np.float64] | None = PUSH, joints: list[float] | None = None,
+             odom_x: float = 0.0) -> None:
+        """One period's inputs (contacts on every link, joint states, odometry)."""
+        for link in self.links:
+            state = ContactState.no_contact(link, self.now_ns)
+            if link == "left_forearm_link" and force is not None:
+                state = ContactState(link, self.now_ns, True, CENTER, force, np.zeros(3),
+                                     CENTER - 0.02, CENTER + 0.02, 16)
+            self.on_contact(link, contact_to_msg(state))
+        self.on_joints(JointState(name=list(self.arm_joints), position=joints or ARM))
+        odom = Odometry()
+        odom.pose.pose.position.x = odom_x
+        odom.pose.pose.orientation.w = 1.0
+        self.on_odom(odom)
+
+    def cycle(self, **inputs: object) -> NDArray[np.float64]:
+        """Advance one period, feed the inputs, run one control cycle; its command."""
+        self.now_ns += PERIOD_NS
+        self.feed(**inputs)  # type: ignore[arg-type]
+        self.tick()
+        return self.commands[-1]
+
+
+@pytest.fixture
+def node(ros_context: object) -> Iterator[RecordingNode]:
+    n = RecordingNode(ros_context)
+    yield n
+    n.destroy_node()
+
+
+def moving(command: NDArray[np.float64]) -> bool:
+    return float(np.max(np.abs(command))) > 1e-4
+
+
+def test_joint_outside_its_limits_gives_zero_then_recovers(node: RecordingNode) -> None:
+    for _ in range(5):
+        assert moving(node.cycle())
+    refused = node.rejected_inputs
+    bad = list(ARM)
+    bad[2] = 10.0  # left elbow at 10 rad, limit ±π
+    assert not moving(node.cycle(joints=bad))
+    assert node.rejected_inputs == refused + 1
+    assert moving(node.cycle())  # the next good message: commands again, in one period
+
+
+def test_absurd_contact_force_is_refused_and_the_next_good_one_commands(
+        node: RecordingNode) -> None:
+    for _ in range(5):
+        node.cycle()
+    assert not moving(node.cycle(force=np.array([0.0, 0.0, 1e19])))
+    assert moving(node.cycle())
+
+
+class FailingSolver:
+    name = "failing"
+
+    def solve(self, problem: object) -> NDArray[np.float64]:
+        raise QPError("injected failure")
+
+
+def test_a_failed_qp_resets_the_tasks_and_the_next_good_cycle_commands(
+        node: RecordingNode) -> None:
+    controller = node.controller
+    assert controller is not None
+    for _ in range(5):
+        node.cycle()
+    assert controller.tasks[1].life_cycle.reference is not None  # the pushed link is active
+    solver, controller.solver = controller.solver, FailingSolver()
+    assert not moving(node.cycle())
+    assert node.qp_failures == 1
+    assert all(t.life_cycle.reference is None for t in controller.tasks)  # reset
+    controller.solver = solver
+    assert moving(node.cycle())
+
+
+def test_odometry_jump_is_refused_once(node: RecordingNode) -> None:
+    for _ in range(3):
+        node.cycle()
+    refused = node.rejected_inputs
+    assert not moving(node.cycle(odom_x=3.0))
+    assert node.rejected_inputs == refused + 1
+    assert moving(node.cycle(odom_x=3.0))  # continuous from the jump on: accepted
+
+
+contact_values = st.one_of(st.floats(-300.0, 300.0), st.sampled_from(
+    [np.nan, np.inf, -np.inf, 1e19, -3e38, 6000.0]))
+joint_values = st.one_of(st.floats(-3.0, 3.0), st.sampled_from([np.nan, 10.0, -1e9]))
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow,
+                                                                  HealthCheck.function_scoped_fixture])
+@given(st.lists(st.tuples(st.lists(contact_values, min_size=3, max_size=3),
+                          st.integers(0, 11), joint_values, st.floats(-1.0, 1.0)),
+                min_size=1, max_size=25))
+def test_fuzzed_inputs_never_give_a_bad_command_nor_wedge(
+        node: RecordingNode, sequence: list[tuple[list[float], int, float, float]]) -> None:
+    limit = float(node.params["velocity_limit"])
+    node.controller.reset()  # type: ignore[union-attr]
+    for force, joint, value, odom_x in sequence:
+        joints = list(ARM)
+        joints[joint] = value
+        command = node.cycle(force=np.array(force), joints=joints, odom_x=odom_x)
+        assert np.all(np.isfinite(command))
+        assert np.all(np.abs(command) <= limit + 1e-9)
+    # Good input again: the robot is commanded within a few periods (no wedge).
+    assert any(moving(node.cycle(odom_x=odom_x)) for _ in range(5))

@@ -1,0 +1,168 @@
+"""Contact safety of one skin link: the force it may cause on a person, and how far it may go
+without feeling one (pure).
+
+Force limits (ISO/TS 15066, :mod:`phri_common.iso15066`). Each link has a quasi-static limit F
+[N] for the body region it meets. A graded response on the measured contact force ‖f‖:
+
+* ‖f‖ ≤ a·F (``fade_start`` a): normal interaction;
+* a·F < ‖f‖ < F: the manual desired force and every commanded motion *towards* the contact (along
+  −n̂, n̂ the unit force on the link, which points away from the person) are scaled by
+  s = (F − ‖f‖) / ((1 − a) F), falling linearly to 0 at F (:func:`approach_scale`);
+* ‖f‖ ≥ F: the link *yields* — it moves away from the contact along n̂ at ``yield_speed``, with the
+  highest weight, and never towards it — until ‖f‖ falls below r·F (``reset_ratio`` r, hysteresis).
+
+The transient limit (2F for most regions) is not a threshold of this response — the response is
+already at full yield at F — but the guard records whether it was ever exceeded, for diagnostics.
+
+Contact gating. A manual desired force (the waltz's 10 N) acts only while the link is touched.
+After contact is lost it may keep acting, to regain the contact, only while the link frame has
+travelled less than ``regain_distance`` and less than ``regain_time`` has passed; then it is
+switched off until the next touch, the link's task stops (zero target, admittance and reference
+reset, so it neither pushes on nor pulls back) and the loss is reported. A blinded skin (no
+contact reported while the robot moves) therefore costs at most that distance, never an
+open-loop push.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass
+
+from phri_common import paper
+from wholebody_controller.so3 import Vec3
+
+
+class Safety(enum.IntEnum):
+    """A link's contact-safety state (reported per link and on diagnostics)."""
+
+    OK = 0
+    """Force below the fade start; desired force gated by contact as usual."""
+    FADING = 1
+    """Force between the fade start and the limit: approach and desired force scaled down."""
+    YIELDING = 2
+    """Force at or above the limit: the link moves away from the contact (ERROR)."""
+    CONTACT_LOST = 3
+    """Desired force switched off: contact lost for longer than the regain budget (WARN)."""
+
+
+@dataclass(frozen=True)
+class SafetyConfig:
+    """Global settings of the graded response and of contact gating (see module docstring).
+
+    Attributes:
+        fade_start: a, fraction of the limit where fading starts, in [0, 1).
+        reset_ratio: r, fraction of the limit below which yielding ends, in (0, 1].
+        yield_speed: speed of the contact centre away from the contact while yielding [m/s].
+        regain_distance: link-frame travel allowed without contact under a desired force [m].
+        regain_time: time allowed without contact under a desired force [s].
+    """
+
+    fade_start: float = 0.5
+    reset_ratio: float = 0.5
+    yield_speed: float = paper.VELOCITY_LIMIT
+    regain_distance: float = 0.15
+    regain_time: float = 2.0
+
+    def __post_init__(self) -> None:
+        checks = {
+            "fade_start": (0.0 <= self.fade_start < 1.0, "[0, 1)"),
+            "reset_ratio": (0.0 < self.reset_ratio <= 1.0, "(0, 1]"),
+            "yield_speed": (self.yield_speed >= 0.0, "≥ 0"),
+            "regain_distance": (self.regain_distance >= 0.0, "≥ 0"),
+            "regain_time": (self.regain_time >= 0.0, "≥ 0"),
+        }
+        for name, (ok, allowed) in checks.items():
+            value = getattr(self, name)
+            if not ok or not math.isfinite(value):
+                raise ValueError(f"safety config: {name} = {value!r} is out of range {allowed}")
+
+
+def approach_scale(force: float, limit: float, fade_start: float) -> float:
+    """s(‖f‖) ∈ [0, 1]: 1 up to a·F, then linear to 0 at F = ``limit`` [N] (``force`` [N])."""
+    start = fade_start * limit
+    if force <= start:
+        return 1.0
+    if force >= limit:
+        return 0.0
+    return (limit - force) / (limit - start)
+
+
+def limit_approach(velocity: Vec3, normal: Vec3, scale: float) -> Vec3:
+    """``velocity`` [m/s] with only ``scale`` of its component towards the contact left.
+
+    ``normal`` n̂ is the unit force on the link (away from the person); the part of v along −n̂
+    is multiplied by s, the rest of v is kept: ``v − (1 − s) min(v·n̂, 0) n̂``.
+    """
+    vx, vy, vz = velocity
+    nx, ny, nz = normal
+    along = vx * nx + vy * ny + vz * nz
+    if along >= 0.0:
+        return velocity
+    k = (1.0 - scale) * along
+    return vx - k * nx, vy - k * ny, vz - k * nz
+
+
+class ForceGuard:
+    """The graded response of one link to its contact force (see module docstring)."""
+
+    def __init__(self, limit: float, transient_limit: float, config: SafetyConfig) -> None:
+        if not (0.0 < limit <= transient_limit) or not math.isfinite(transient_limit):
+            raise ValueError(f"force limits must satisfy 0 < limit ≤ transient limit < ∞, got "
+                             f"{limit} N and {transient_limit} N")
+        self.limit, self.transient_limit, self.config = limit, transient_limit, config
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the episode: not yielding, no peak."""
+        self.yielding = False
+        self.peak = 0.0
+        """Largest contact force seen since the last reset [N]."""
+        self.transient_exceeded = False
+
+    def update(self, force: float) -> float:
+        """Take this cycle's contact force ‖f‖ [N]; return the approach scale s ∈ [0, 1]."""
+        self.peak = max(self.peak, force)
+        self.transient_exceeded = self.transient_exceeded or force > self.transient_limit
+        if self.yielding:
+            self.yielding = force >= self.config.reset_ratio * self.limit
+        else:
+            self.yielding = force >= self.limit
+        if self.yielding:
+            return 0.0
+        return approach_scale(force, self.limit, self.config.fade_start)
+
+
+class RegainBudget:
+    """Contact gating of a manual desired force (see module docstring)."""
+
+    def __init__(self, config: SafetyConfig) -> None:
+        self.config = config
+        self.reset()
+
+    def reset(self) -> None:
+        """As at a touch: full budget."""
+        self.travel = 0.0
+        """Link-frame travel since contact was lost [m]."""
+        self.elapsed = 0.0
+        """Time since contact was lost [s]."""
+        self.exhausted = False
+
+    def update(self, in_contact: bool, travel: float, dt: float) -> bool:
+        """Whether the desired force may act this cycle.
+
+        Args:
+            in_contact: the link is touched now.
+            travel: distance the link frame moved since the previous cycle [m].
+            dt: control period [s].
+        """
+        if in_contact:
+            self.reset()
+            return True
+        self.travel += travel
+        self.elapsed += dt
+        cfg = self.config
+        # 1e-9: a time summed from periods (200 × 0.01 s) must not exhaust the budget early.
+        if self.travel > cfg.regain_distance or self.elapsed > cfg.regain_time + 1e-9:
+            self.exhausted = True
+        return not self.exhausted
