@@ -122,8 +122,9 @@ class ForceGuard:
 
     def update(self, force: float) -> float:
         """Take this cycle's contact force ‖f‖ [N]; return the approach scale s ∈ [0, 1]."""
-        self.peak = max(self.peak, force)
-        self.transient_exceeded = self.transient_exceeded or force > self.transient_limit
+        if force > self.peak:
+            self.peak = force
+            self.transient_exceeded = self.transient_exceeded or force > self.transient_limit
         if self.yielding:
             self.yielding = force >= self.config.reset_ratio * self.limit
         else:

@@ -36,7 +36,7 @@ from wholebody_controller.contact_safety import (
     SafetyConfig,
     limit_approach,
 )
-from wholebody_controller.linalg3 import cross, matmul, matmul_transpose, rotate
+from wholebody_controller.linalg3 import matmul, matmul_transpose, rotate, rotate_pair
 from wholebody_controller.so3 import Mat9, Vec3, exp_and_left_jacobian, log
 
 Array = NDArray[np.float64]
@@ -95,7 +95,7 @@ def contact_wrench(force: Vec3, torque: Vec3, mu: Vec3, k_eta: float, rot: Mat9)
     contact centre (9b) [N·m], ``mu`` the track force (11) [m] in the link frame, ``k_eta`` [N/m].
     """
     pushed = (force[0] + k_eta * mu[0], force[1] + k_eta * mu[1], force[2] + k_eta * mu[2])
-    return [*rotate(rot, pushed), *rotate(rot, torque)]
+    return list(rotate_pair(rot, pushed, torque))
 
 
 def priority(deflection_velocity: Sequence[float], b: float) -> float:
@@ -127,7 +127,8 @@ def task_velocity(
     """
     qx, qy, qz = rotate(rot_d, point)
     sx, sy, sz = rotate(rot, point)
-    wx, wy, wz = cross(omega_d, (qx, qy, qz))
+    ox, oy, oz = omega_d
+    wx, wy, wz = oy * qz - oz * qy, oz * qx - ox * qz, ox * qy - oy * qx  # ω_d × R_d p
     dx, dy, dz = deflection[0], deflection[1], deflection[2]
     vx, vy, vz = deflection_velocity[0], deflection_velocity[1], deflection_velocity[2]
     linear = (k_p * ((ref_pos[0] + dx - pos[0]) + qx - sx) + vx + wx,
@@ -165,8 +166,9 @@ class LifeCycle:
         self.reference: tuple[Mat9, Vec3] | None = None
         """Locked (⁰R_r row-major, ⁰p_r [m]) while active."""
 
-    def advance(self, psi_raw: float, rot: Mat9, pos: Vec3) -> tuple[bool, bool]:
-        """Take this step's ψ; returns ``(activating, deactivated)`` (lines 3–10)."""
+    def advance(self, psi_raw: float, rot: Mat9, pos: Vec3) -> tuple[bool, bool, bool]:
+        """Take this step's ψ; returns ``(activating, deactivated, active)`` (lines 3–10), active
+        = ψ ≥ ψ_thr with a locked reference (a NaN ψ is never active)."""
         thr = self.psi_thr
         activating = self.psi_prev <= thr < psi_raw
         deactivated = self.psi_prev >= thr > psi_raw
@@ -175,11 +177,7 @@ class LifeCycle:
         if deactivated:
             self.reference = None
         self.psi_prev = psi_raw
-        return activating, deactivated
-
-    def is_active(self, psi_raw: float) -> bool:
-        """ψ ≥ ψ_thr with a locked reference (a NaN ψ is never active)."""
-        return psi_raw >= self.psi_thr and self.reference is not None
+        return activating, deactivated, psi_raw >= thr and self.reference is not None
 
 
 class TaskOutput(NamedTuple):
@@ -419,11 +417,10 @@ class ContactTask:
         adm.step_f(wrench)  # (13)
         lock = self.config.priority_lock
         psi_raw = lock if lock is not None else priority(adm.state_f[1], self.b)
-        activating, deactivated = self.life_cycle.advance(psi_raw, rot, pos)
+        activating, deactivated, active = self.life_cycle.advance(psi_raw, rot, pos)
         if deactivated:
             adm.reset()  # line 10
             self._desired = None
-        active = self.life_cycle.is_active(psi_raw)
         if active and contact.in_contact and self._desired is None:
             self._lock_region(contact)
         if active:
@@ -449,7 +446,7 @@ class ContactTask:
         psi = 1.0 if self.guard.yielding else (psi_raw if psi_raw > thr else thr)
         safety = _SAFE if scale == 1.0 and not self.regain.exhausted else \
             self._safety_state(scale)
-        return TaskOutput(self.config.link, phase, psi, psi_raw, in_contact, values, safety)
+        return _make_output((self.config.link, phase, psi, psi_raw, in_contact, values, safety))
 
 
 _INACTIVE, _ACTIVATING, _ACTIVE, _DEACTIVATING = (
@@ -457,3 +454,4 @@ _INACTIVE, _ACTIVATING, _ACTIVE, _DEACTIVATING = (
 )
 _ZERO12: tuple[float, ...] = (0.0,) * 12
 _SAFE = Safety.OK
+_make_output = TaskOutput._make  # from a tuple in field order: a third cheaper than TaskOutput(…)

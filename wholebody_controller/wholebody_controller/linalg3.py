@@ -16,6 +16,15 @@ def rotate(m: Mat9, v: Vec3) -> Vec3:
     return m0 * x + m1 * y + m2 * z, m3 * x + m4 * y + m5 * z, m6 * x + m7 * y + m8 * z
 
 
+def rotate_pair(m: Mat9, u: Vec3, v: Vec3) -> tuple[float, float, float, float, float, float]:
+    """``(M u, M v)`` as six floats (one call for two vectors in the same frame)."""
+    m0, m1, m2, m3, m4, m5, m6, m7, m8 = m
+    ux, uy, uz = u
+    vx, vy, vz = v
+    return (m0 * ux + m1 * uy + m2 * uz, m3 * ux + m4 * uy + m5 * uz, m6 * ux + m7 * uy + m8 * uz,
+            m0 * vx + m1 * vy + m2 * vz, m3 * vx + m4 * vy + m5 * vz, m6 * vx + m7 * vy + m8 * vz)
+
+
 def matmul(a: Mat9, b: Mat9) -> tuple[float, ...]:
     """``A B``."""
     a0, a1, a2, a3, a4, a5, a6, a7, a8 = a
@@ -36,10 +45,3 @@ def matmul_transpose(a: Mat9, b: Mat9) -> tuple[float, ...]:
         a3 * b0 + a4 * b1 + a5 * b2, a3 * b3 + a4 * b4 + a5 * b5, a3 * b6 + a4 * b7 + a5 * b8,
         a6 * b0 + a7 * b1 + a8 * b2, a6 * b3 + a7 * b4 + a8 * b5, a6 * b6 + a7 * b7 + a8 * b8,
     )
-
-
-def cross(a: Vec3, b: Vec3) -> Vec3:
-    """``a × b``."""
-    a0, a1, a2 = a
-    b0, b1, b2 = b
-    return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
