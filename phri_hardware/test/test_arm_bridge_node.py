@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-import errno
 import json
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -19,12 +17,11 @@ from std_msgs.msg import Float64MultiArray
 from phri_common.params import ParameterValueError
 from phri_common.testing import spin_until
 from phri_hardware.fake_arm import FakeArmSpec
-from phri_hardware.fake_rtde import I_SETUP_INPUTS, FakeRobotState, FakeRtdeServer
+from phri_hardware.fake_rtde import I_SETUP_INPUTS, FakeRtdeServer
 from phri_hardware.ur_arm_bridge_node import UrArmBridgeNode
 
 RATE = 100.0
 QD = [0.1, 0.0, 0.0, 0.0, 0.0, -0.2]
-FAKE_Q = (0.1, -1.2, 1.3, -1.4, -1.5, 0.6)
 
 
 def read_log(path: Path) -> list[dict]:
@@ -166,18 +163,6 @@ def test_parameters_are_validated(ros_context: object) -> None:
         UrArmBridgeNode(context=ros_context)  # backend ur_rtde without an address
 
 
-@pytest.fixture
-def rtde_server() -> Iterator[FakeRtdeServer]:
-    try:
-        server = FakeRtdeServer(FakeRobotState(q=FAKE_Q), lifetime=60.0)
-    except OSError as err:
-        if err.errno == errno.EADDRINUSE:
-            pytest.skip("127.0.0.1:30004 is in use (another RTDE server runs here)")
-        raise
-    with server:
-        yield server
-
-
 def _values(status: DiagnosticStatus) -> dict[str, str]:
     return {kv.key: kv.value for kv in status.values}
 
@@ -193,7 +178,7 @@ def test_monitor_mode_publishes_joint_states_from_rtde_and_refuses_commands(
         assert spin_until(h.executor, lambda: len(h.joint_states) >= 20, 15.0)
         js = h.joint_states[-1]
         assert js.name[0] == "left_shoulder_pan_joint"
-        assert list(js.position) == pytest.approx(FAKE_Q)
+        assert list(js.position) == pytest.approx(rtde_server.state.q)
         h.run(0.5, None)
         quiet = h.diagnostics[-1]
         assert quiet.level == DiagnosticStatus.OK and "monitor mode" in quiet.message

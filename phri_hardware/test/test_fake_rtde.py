@@ -9,31 +9,15 @@ root cause.
 
 from __future__ import annotations
 
-import errno
 import time
-from collections.abc import Iterator
 
 import pytest
 
 from phri_hardware.arm_worker import ArmLink, WorkerReport
 from phri_hardware.fake_arm import FakeArmSpec
-from phri_hardware.fake_rtde import I_SETUP_INPUTS, FakeRobotState, FakeRtdeServer
+from phri_hardware.fake_rtde import I_SETUP_INPUTS, FakeRtdeServer
 from phri_hardware.rtde_arm import UrRtdeArmFactory
 from phri_hardware.ur_arm import BridgeConfig, SafetyMode
-
-Q = (0.1, -1.2, 1.3, -1.4, -1.5, 0.6)
-
-
-@pytest.fixture
-def rtde_server() -> Iterator[FakeRtdeServer]:
-    try:
-        server = FakeRtdeServer(FakeRobotState(q=Q), lifetime=60.0)
-    except OSError as err:
-        if err.errno == errno.EADDRINUSE:
-            pytest.skip("127.0.0.1:30004 is in use (another RTDE server runs here)")
-        raise
-    with server:
-        yield server
 
 
 def _link(factory: object, monitor: bool) -> ArmLink:
@@ -60,7 +44,7 @@ def test_monitor_mode_reads_the_robot_through_rtde_receive_only(
         reports = _poll_until(link, lambda lk, r: len(r) >= 20, timeout=15.0)
         assert len(reports) >= 20, f"no reports: {link.status}"
         state = reports[-1].state
-        assert state.connected and state.q == pytest.approx(Q)
+        assert state.connected and state.q == pytest.approx(rtde_server.state.q)
         assert state.safety_mode == SafetyMode.NORMAL and not state.protective_stopped
         assert all(r.action == "none" and not r.moving for r in reports)
         with rtde_server.state.lock:  # a protective stop on the robot shows up in the state

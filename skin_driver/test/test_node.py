@@ -101,6 +101,16 @@ def _node(ros_context, port: Path, layout_file: Path, **extra) -> SkinDriverNode
     return SkinDriverNode(context=ros_context, parameter_overrides=overrides)
 
 
+
+def _listen(ros_context, node):  # type: ignore[no-untyped-def]
+    """A listener node on the forearm patch's taxels and an executor spinning both nodes."""
+    sub = Node("listener", context=ros_context)
+    listener = Listener(sub, "skin/forearm/taxels")
+    ex = SingleThreadedExecutor(context=ros_context)
+    ex.add_node(node)
+    ex.add_node(sub)
+    return sub, listener, ex
+
 @pytest.mark.ros
 def test_pty_board_to_subscriber_and_recovery(ros_context, setup) -> None:  # type: ignore[no-untyped-def]
     layout, layout_file, link = setup
@@ -108,11 +118,7 @@ def test_pty_board_to_subscriber_and_recovery(ros_context, setup) -> None:  # ty
     board = Board(link, [(SimBoard(4, layout, noise_counts=2.0, seed=0), pressed)])
     board.start()
     node = _node(ros_context, link, layout_file)
-    sub = Node("listener", context=ros_context)
-    listener = Listener(sub, "skin/forearm/taxels")
-    ex = SingleThreadedExecutor(context=ros_context)
-    ex.add_node(node)
-    ex.add_node(sub)
+    sub, listener, ex = _listen(ros_context, node)
     try:
         # Tare (0.2 s) then steady publishing.
         assert spin_until(ex, lambda: len(listener.msgs) >= 50, timeout_s=15.0)
@@ -172,11 +178,7 @@ def test_corrupted_line_is_counted_and_survived(ros_context, setup) -> None:  # 
                          (SimBoard(9, layout, seed=2), pattern)])  # 9: not configured
     board.start()
     node = _node(ros_context, link, layout_file)
-    sub = Node("listener", context=ros_context)
-    listener = Listener(sub, "skin/forearm/taxels")
-    ex = SingleThreadedExecutor(context=ros_context)
-    ex.add_node(node)
-    ex.add_node(sub)
+    sub, listener, ex = _listen(ros_context, node)
     try:
         assert spin_until(ex, lambda: len(listener.msgs) >= 300, timeout_s=15.0)
         port, boards = node.snapshot()
@@ -278,11 +280,7 @@ def test_forged_header_costs_no_stall_and_every_frame_keeps_its_own_stamp(  # ty
                           press_pattern(layout, force=2.0, radius=0.01, period=0.0))])
     board.start()
     node = _node(ros_context, link, layout_file, tare_frames=20, qos_depth=100)
-    sub = Node("listener", context=ros_context)
-    listener = Listener(sub, "skin/forearm/taxels")
-    ex = SingleThreadedExecutor(context=ros_context)
-    ex.add_node(node)
-    ex.add_node(sub)
+    sub, listener, ex = _listen(ros_context, node)
     try:
         # Publishing starts at frame 20; the forged header follows frame 300 (t = 0.6 s).
         assert spin_until(ex, lambda: len(listener.msgs) >= 600, timeout_s=30.0)
@@ -315,11 +313,7 @@ def test_bytes_without_a_valid_frame_turn_the_port_warn(ros_context, setup) -> N
     _, layout_file, link = setup
     endpoint = PtyEndpoint(link)
     node = _node(ros_context, link, layout_file, silence_timeout=0.2)
-    sub = Node("listener", context=ros_context)
-    listener = Listener(sub, "skin/forearm/taxels")
-    ex = SingleThreadedExecutor(context=ros_context)
-    ex.add_node(node)
-    ex.add_node(sub)
+    sub, listener, ex = _listen(ros_context, node)
     rng = np.random.default_rng(5)
     try:
         assert spin_until(ex, lambda: node._reader.stats.connected, timeout_s=10.0)
