@@ -41,7 +41,7 @@ from phri_description.description import BASE_JOINTS
 
 FloatArray = NDArray[np.float64]
 
-FORCE_SCALE = 0.025
+FORCE_SCALE = 0.035
 """Arrow length per newton of contact force [m/N]."""
 WAIST_LINK = "left_forearm_link"
 """The link whose force and ψ the overlay shows (the waltz's waist hold, VI-B)."""

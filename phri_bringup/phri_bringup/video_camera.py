@@ -49,8 +49,8 @@ class CameraRig:
         tau: smoothing time constant [s].
     """
 
-    side_angle: float = -95.0
-    elevation: float = -25.0
+    side_angle: float = -60.0
+    elevation: float = -28.0
     distance: float = 3.4
     separation: float = 0.8
     height: float = 1.0
