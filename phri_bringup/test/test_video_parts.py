@@ -206,3 +206,12 @@ def test_changing_pixel_share_counts_pixels_that_change_within_a_second() -> Non
         moving.append(f)
     share = changing_pixel_share(moving, fps=10.0)
     assert share == pytest.approx(6 / 30, abs=0.02)  # old and new bar positions differ
+
+
+def test_one_foot_at_a_time_even_with_beats_shorter_than_a_swing() -> None:
+    feet = Feet(beat=0.1, swing_time=0.4)
+    path = [(0.02 * i, np.array([0.6 * 0.02 * i, 0.0]), 0.0) for i in range(300)]
+    poses = np.array(_walk(feet, path))
+    airborne = poses[:, :, 2] > DIMS.ankle_height + 1e-9
+    assert feet.steps >= 4
+    assert not np.any(airborne.all(axis=1))

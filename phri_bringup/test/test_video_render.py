@@ -75,7 +75,8 @@ def test_turning_couple_changes_many_pixels_a_static_one_almost_none() -> None:
     share_moving = changing_pixel_share(moving, FPS)
     share_static = changing_pixel_share(static, FPS)
     assert share_static < 0.01, share_static  # the overlay's clock only
-    assert share_moving > 0.15, share_moving
+    # 0.44 measured; a camera that stays put while the couple drives off gives 0.16
+    assert share_moving > 0.3, share_moving
     assert all(_red(f) > 0 for f in static)  # the waist force arrow is visible
 
 
