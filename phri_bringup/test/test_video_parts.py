@@ -215,3 +215,35 @@ def test_one_foot_at_a_time_even_with_beats_shorter_than_a_swing() -> None:
     airborne = poses[:, :, 2] > DIMS.ankle_height + 1e-9
     assert feet.steps >= 4
     assert not np.any(airborne.all(axis=1))
+
+
+# -- docs ------------------------------------------------------------------------------------------
+def _video_docs() -> str:
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[2] / "docs" / "bringup.md").read_text()
+    return text[text.index("### Video (`phri video`)"):text.index("## Recording")]
+
+
+def _documented_value(doc: str, name: str) -> float:
+    import re
+
+    match = re.search(rf"`{name}` = ([−-]?\d+(?:\.\d+)?)", doc)
+    assert match, f"docs/bringup.md, Video: no '`{name}` = value'"
+    return float(match.group(1).replace("−", "-"))
+
+
+def test_docs_give_every_camera_and_stepping_default_and_every_video_option() -> None:
+    from dataclasses import fields
+
+    from phri_bringup import video
+
+    doc = _video_docs()
+    rig, feet = CameraRig(), Feet()
+    for f in fields(CameraRig):
+        assert _documented_value(doc, f.name) == pytest.approx(getattr(rig, f.name)), f.name
+    for name in ("step_distance", "beat"):
+        assert _documented_value(doc, name) == pytest.approx(getattr(feet, name)), name
+    assert _documented_value(doc, "FORCE_SCALE") == pytest.approx(video.FORCE_SCALE)
+    for f in fields(video.VideoOptions):
+        assert f"`{f.name}`" in doc, f"VideoOptions.{f.name} is not documented"
