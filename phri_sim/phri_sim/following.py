@@ -172,7 +172,7 @@ def accumulated_turn(yaw: FloatArray) -> dict[str, float]:
     heading series, summed over its unwrapped increments [deg] (F6), and the net turn."""
     steps = np.diff(np.unwrap(np.asarray(yaw, dtype=np.float64)))
     left = float(np.degrees(steps[steps > 0].sum()))
-    right = float(np.degrees(-steps[steps < 0].sum()))
+    right = abs(float(np.degrees(steps[steps < 0].sum())))
     return {"left_deg": left, "right_deg": right, "net_deg": left - right}
 
 

@@ -1,0 +1,74 @@
+"""The followability map through the real nodes: each lead of :mod:`phri_sim.lead` run lock-step.
+
+:func:`run_lead` runs one lead scenario with :func:`phri_sim.runner.run_scenario` (the real
+contact estimation and whole-body controller, or the zero-command stub = a motionless robot);
+:func:`run_map` runs the search of :func:`phri_sim.lead.followability_map` with it. The short
+form (:data:`SHORT_FORM`, CI) tries one speed per direction on the 2.5 s profile.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from phri_sim.following import Bars
+from phri_sim.lead import (
+    FULL_PROFILE,
+    HEADINGS_DEG,
+    SHORT_PROFILE,
+    SPEEDS,
+    TURN_RATES,
+    Lead,
+    Profile,
+    followability_map,
+    lead_scenario,
+    registered,
+)
+from phri_sim.runner import run_scenario
+
+
+@dataclass(frozen=True)
+class MapForm:
+    """Which leads the map tries: the profile, headings [deg], speeds [m/s], turn rates
+    [rad/s]."""
+
+    profile: Profile
+    headings: tuple[float, ...]
+    speeds: tuple[float, ...]
+    turn_rates: tuple[float, ...]
+
+
+FULL_FORM = MapForm(FULL_PROFILE, HEADINGS_DEG, SPEEDS, TURN_RATES)
+SHORT_FORM = MapForm(SHORT_PROFILE, HEADINGS_DEG, (0.05,), (0.1,))
+"""CI: 8 headings at 0.05 m/s and both turns at 0.1 rad/s, 2.5 s each."""
+
+
+def run_lead(lead: Lead, profile: Profile = FULL_PROFILE, *, controller: str = "node",
+             seed: int = 0) -> dict[str, Any]:
+    """Metrics of one lead (``controller`` 'node' = the whole-body controller, 'stub' = a
+    motionless robot)."""
+    sc = lead_scenario(lead, profile)
+    with registered(sc):
+        return run_scenario(sc.name, duration=profile.duration, seed=seed, controller=controller)
+
+
+def run_map(form: MapForm = FULL_FORM, bars: Bars | None = None, *, controller: str = "node",
+            seed: int = 0, progress: Callable[[Lead, dict[str, Any]], None] | None = None
+            ) -> dict[str, Any]:
+    """The followability map (:func:`phri_sim.lead.followability_map`) through the nodes, with
+    the form, controller and CPU time it took."""
+    bars = bars or Bars()
+    cpu = time.process_time()
+
+    def run(lead: Lead) -> dict[str, Any]:
+        metrics = run_lead(lead, form.profile, controller=controller, seed=seed)
+        if progress is not None:
+            progress(lead, metrics)
+        return metrics
+
+    out = followability_map(run, bars, form.headings, form.speeds, form.turn_rates)
+    out.update({"profile": vars(form.profile), "controller": controller, "seed": seed,
+                "cpu_time": time.process_time() - cpu})
+    return out
