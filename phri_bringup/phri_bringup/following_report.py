@@ -7,7 +7,11 @@
   ``phri sim`` prints ("robot | motionless");
 * :func:`plot_following` draws ``following.png`` (one per run): the partner's pose in the robot
   base frame, its drift, the waist force in its band, the headings of partner and robot;
-* :func:`plot_map` draws the followability map (``phri followability``) as a polar PNG.
+* :func:`plot_map` draws the followability map (``phri followability``) as a polar PNG;
+* :func:`series_from_recording` rebuilds the following series from a recording's ground-truth
+  topics alone (``/odom``, ``/sim/person/poses``, ``/sim/contacts/<link>/wrench``), so the
+  ``following`` block can be recomputed from any recording with
+  :func:`phri_sim.following.following_summary` (docs/phri_sim.md, "Following metrics").
 """
 
 from __future__ import annotations
@@ -21,6 +25,44 @@ import numpy as np
 from phri_sim.following import FollowingSeries, relative_pose
 
 Progress = Callable[[float, float], None]
+
+
+def series_from_recording(path: str | Path, link: str) -> FollowingSeries:
+    """The following series of a recording (run directory, recording directory or ``.mcap``):
+    base pose from ``/odom``, partner pose = the first pose of ``/sim/person/poses``, force =
+    ‖f‖ of ``/sim/contacts/<link>/wrench`` (touched: ‖f‖ > 0), on the header stamps the three
+    share (one per control period)."""
+    from rclpy.serialization import deserialize_message
+    from rosbags.highlevel import AnyReader
+
+    from phri_bringup.recording import find_recording, ros_type
+    from phri_common.planar import yaw_from_quaternion
+
+    def pose(p: Any) -> list[float]:
+        q = p.orientation
+        return [p.position.x, p.position.y, yaw_from_quaternion(q.w, q.x, q.y, q.z)]
+
+    wrench = f"/sim/contacts/{link}/wrench"
+    rows: dict[str, dict[int, Any]] = {"/odom": {}, "/sim/person/poses": {}, wrench: {}}
+    with AnyReader([find_recording(path)]) as reader:
+        wanted = [c for c in reader.connections if c.topic in rows]
+        for conn, _, raw in reader.messages(connections=wanted):
+            msg = deserialize_message(raw, ros_type(conn.msgtype))
+            stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+            if conn.topic == "/odom":
+                rows[conn.topic][stamp] = pose(msg.pose.pose)
+            elif conn.topic == wrench:
+                f = msg.wrench.force
+                rows[conn.topic][stamp] = float(np.linalg.norm([f.x, f.y, f.z]))
+            elif msg.poses:
+                rows[conn.topic][stamp] = pose(msg.poses[0])
+    stamps = sorted(set.intersection(*(set(r) for r in rows.values())))
+    if len(stamps) < 2:
+        raise ValueError(f"{path}: fewer than 2 common stamps of {', '.join(rows)}")
+    force = np.array([rows[wrench][s] for s in stamps])
+    return FollowingSeries(np.array(stamps) * 1e-9, np.array([rows["/odom"][s] for s in stamps]),
+                           np.array([rows["/sim/person/poses"][s] for s in stamps]), force,
+                           force > 0.0)
 
 
 def run_motionless(scenario: str, *, duration: float | None, short: bool, seed: int,

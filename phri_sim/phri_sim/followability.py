@@ -3,7 +3,7 @@
 :func:`run_lead` runs one lead scenario with :func:`phri_sim.runner.run_scenario` (the real
 contact estimation and whole-body controller, or the zero-command stub = a motionless robot);
 :func:`run_map` runs the search of :func:`phri_sim.lead.followability_map` with it. The short
-form (:data:`SHORT_FORM`, CI) tries one speed per direction on the 2.5 s profile.
+form (:data:`SHORT_FORM`, CI) tries two speeds per direction on the 2.5 s profile.
 """
 
 from __future__ import annotations
@@ -41,8 +41,8 @@ class MapForm:
 
 
 FULL_FORM = MapForm(FULL_PROFILE, HEADINGS_DEG, SPEEDS, TURN_RATES)
-SHORT_FORM = MapForm(SHORT_PROFILE, HEADINGS_DEG, (0.05,), (0.1,))
-"""CI: 8 headings at 0.05 m/s and both turns at 0.1 rad/s, 2.5 s each."""
+SHORT_FORM = MapForm(SHORT_PROFILE, HEADINGS_DEG, (0.05, 0.1), (0.1, 0.3))
+"""CI: 8 headings at 0.05 then 0.1 m/s, both turns at 0.1 then 0.3 rad/s, 2.5 s each."""
 
 
 def run_lead(lead: Lead, profile: Profile = FULL_PROFILE, *, controller: str = "node",

@@ -169,6 +169,7 @@ class MetricsRecorder:
         self.torso_path: list[FloatArray] = []
         self.base_pose: list[FloatArray] = []
         self.partner_pose: list[FloatArray] = []
+        self.waist_force: list[float] = []
         self.violations = 0
         self.violation_kinds: dict[str, int] = {"joint_limit": 0, "dance_band": 0, "velocity": 0}
         self.max_command = 0.0
@@ -221,7 +222,8 @@ class MetricsRecorder:
             self.violation_kinds["joint_limit"] += int(bad_joint)
             self.violation_kinds["dance_band"] += int(bad_band)
             self.violation_kinds["velocity"] += int(bad_vel)
-        for link, gt in sim.ground_truth().items():
+        truth = sim.ground_truth()
+        for link, gt in truth.items():
             series = self.links.setdefault(link, _LinkSeries())
             touched = gt.in_contact and gt.normal_force > 0.0
             if touched and not (series.touched and series.touched[-1]):
@@ -242,6 +244,8 @@ class MetricsRecorder:
         torso = next((p.name for p in sim.parts if p.name == "person_torso"), None)
         if torso is not None:
             self.torso_path.append(sim.part_pose(torso)[0][:2])
+        lead = truth.get(WALTZ_LINK)  # as sim/contacts/<link>/wrench: ‖f‖
+        self.waist_force.append(0.0 if lead is None else float(np.linalg.norm(lead.force_link)))
         self.base_pose.append(q[:3].copy())
         if sim.parts:  # the partner's pose: the first part (torso / pelvis), as sim/person/poses
             pos, quat = sim.part_pose(sim.parts[0].name)
@@ -296,12 +300,12 @@ class MetricsRecorder:
     def following_series(self) -> FollowingSeries | None:
         """The recorded inputs of the ``following`` block (``None`` without a partner or
         samples)."""
-        series = self.links.get(WALTZ_LINK)
-        if series is None or not self.partner_pose or len(self.partner_pose) != len(self.times):
+        if WALTZ_LINK not in self.links or len(self.partner_pose) != len(self.times) or (
+                not self.times):
             return None
+        force = np.array(self.waist_force)
         return FollowingSeries(np.array(self.times), np.array(self.base_pose),
-                               np.array(self.partner_pose), np.array(series.normal_force),
-                               np.array(series.touched, dtype=bool))
+                               np.array(self.partner_pose), force, force > 0.0)
 
     def _peak_forces(self) -> dict[str, dict[str, float]] | None:
         """Peak contact force per partner body part and per robot link [N] (every physics
