@@ -18,6 +18,11 @@ a cosine ramp up over ``ramp``, ``cruise`` at full speed, a cosine ramp down ove
 standing still to the end. The spring targets' velocities are the profile's derivative, so the
 partner is driven exactly along it and a robot that does not follow builds force.
 
+Every lead covers the same amount (:class:`LeadTiming`: 0.30 m of translation or 90° of turn),
+so a slow lead lasts longer, and a robot that stands still either lets the whole lead through as
+drift (3× the position bar, 9× the heading bar) or blocks it and builds force, at any speed: a
+pass is never a lead too small to tell.
+
 :func:`followability_map` searches, per lead direction, increasing speeds until the first one
 that fails the bars (:func:`lead_passes`); the fastest speed before it is "followed". The
 search takes the function that runs one lead, so it is tested without the simulator.
@@ -41,7 +46,7 @@ from phri_sim.sim import Simulation
 
 HEADINGS_DEG: tuple[float, ...] = (0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0)
 """Lead directions of the map in the robot base frame [deg]."""
-SPEEDS: tuple[float, ...] = (0.025, 0.05, 0.1, 0.15, 0.2, 0.3, 0.5)
+SPEEDS: tuple[float, ...] = (0.025, 0.05, 0.075, 0.1, 0.15, 0.2, 0.3, 0.5)
 """Translation speeds tried, increasing [m/s] (0.5 m/s: the mecanum base's limit)."""
 TURN_RATES: tuple[float, ...] = (0.05, 0.1, 0.15, 0.3, 0.5, 1.0)
 """Turn rates tried in each direction, increasing [rad/s] (1.0 rad/s: the base's limit)."""
@@ -90,9 +95,40 @@ def _up(u: float) -> float:
     return 0.5 - 0.5 * math.cos(math.pi * u)
 
 
-FULL_PROFILE = Profile()
-SHORT_PROFILE = Profile(intro=0.5, ramp=0.5, cruise=1.0, outro=0.0)
-"""The CI form: 2.5 s per lead."""
+@dataclass(frozen=True)
+class LeadTiming:
+    """How much every lead covers and its standing / ramp times.
+
+    Attributes:
+        distance: translation of a lead [m].
+        angle: turn of a lead [rad].
+        intro, ramp, outro: standing in the hold, the longest speed ramp, standing after [s].
+    """
+
+    distance: float = 0.30
+    angle: float = 0.5 * math.pi
+    intro: float = 1.0
+    ramp: float = 1.0
+    outro: float = 1.0
+
+    def __post_init__(self) -> None:
+        for name in ("distance", "angle", "ramp"):
+            if not getattr(self, name) > 0.0:
+                raise ValueError(f"lead timing {name}={getattr(self, name)}: must be > 0")
+
+    def profile(self, lead: Lead) -> Profile:
+        """The lead's profile (L1): ramps of ``ramp`` (at most half the lead's time at full
+        speed), the cruise that makes it cover ``distance`` / ``angle``."""
+        amount = self.distance if lead.kind == "translate" else self.angle
+        at_speed = amount / abs(lead.speed)  # s(end) = ramp + cruise = amount / speed
+        ramp = min(self.ramp, 0.5 * at_speed)
+        return Profile(self.intro, ramp, at_speed - ramp, self.outro)
+
+
+FULL_TIMING = LeadTiming()
+SHORT_TIMING = LeadTiming(distance=0.15, angle=math.radians(30.0), intro=0.5, ramp=0.5,
+                          outro=0.5)
+"""The CI form: 0.15 m or 30° per lead (still 1.5× / 3× the drift bars)."""
 
 
 @dataclass(frozen=True)
@@ -161,7 +197,7 @@ def lead_script(lead: Lead, profile: Profile, base: Scenario) -> Callable[[Simul
     return make
 
 
-def lead_scenario(lead: Lead, profile: Profile = FULL_PROFILE, base: str = "waltz") -> Scenario:
+def lead_scenario(lead: Lead, profile: Profile, base: str = "waltz") -> Scenario:
     """A scenario in which the partner of scenario ``base`` leads ``lead`` (module docstring)."""
     sc = SCENARIOS[base]
     return dataclasses.replace(

@@ -10,8 +10,9 @@ import pytest
 
 from phri_sim.following import Bars
 from phri_sim.lead import (
-    SHORT_PROFILE,
+    FULL_TIMING,
     Lead,
+    LeadTiming,
     Profile,
     followability_map,
     lead_passes,
@@ -33,6 +34,22 @@ def test_profile_distance_is_the_integral_of_its_speed() -> None:
     np.testing.assert_allclose(s, integral, atol=1e-5)
     assert rate.max() == pytest.approx(1.0)
     assert p.distance(0.99)[0] == 0.0
+
+
+SHORT_PROFILE = Profile(intro=0.5, ramp=0.5, cruise=1.0, outro=0.0)
+
+
+def test_every_lead_covers_the_same_amount_at_any_speed() -> None:
+    """0.30 m of translation or 90° of turn, whatever the speed; short ramps at high speed."""
+    for v in (0.025, 0.1, 0.5):
+        p = FULL_TIMING.profile(Lead("translate", v, 45.0))
+        assert v * p.distance(p.duration)[0] == pytest.approx(0.30)
+        assert p.ramp <= p.cruise + 1e-12
+    p = FULL_TIMING.profile(Lead("turn", -0.3))
+    assert 0.3 * p.distance(p.duration)[0] == pytest.approx(math.pi / 2)
+    assert p.duration == pytest.approx(1.0 + (math.pi / 2) / 0.3 + 1.0 + 1.0)
+    with pytest.raises(ValueError, match="distance"):
+        LeadTiming(distance=0.0)
 
 
 @pytest.fixture(scope="module")
