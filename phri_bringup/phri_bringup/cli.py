@@ -81,20 +81,7 @@ def _parser() -> argparse.ArgumentParser:
     sim.add_argument("--realtime", type=float, default=None, metavar="FACTOR",
                      help="pace the run to FACTOR × real time (default 1 with --foxglove, "
                           "else as fast as possible)")
-    sim.add_argument("--baseline", dest="baseline", action="store_true", default=None,
-                     help="also run the scenario with a motionless robot (zero commands) and "
-                          "print its following metrics beside the run's (default: waltz only)")
-    sim.add_argument("--no-baseline", dest="baseline", action="store_false",
-                     help="no motionless baseline")
-
-    follow = sub.add_parser("followability", help="the followability map: fastest lead "
-                            "followed per direction and turn (polar PNG + JSON)")
-    follow.add_argument("--out", default="runs/followability", help="output directory")
-    follow.add_argument("--short", action="store_true",
-                        help="CI form: one speed per direction, 2.5 s leads")
-    follow.add_argument("--seed", type=int, default=0, help="skin noise seed")
-    follow.add_argument("--motionless", action="store_true",
-                        help="the map of a motionless robot (zero-command stub)")
+    _following_arguments(sub, sim)
 
     plot = sub.add_parser("plot", help="figure panels (PNG) and key numbers from a recording")
     plot.add_argument("run", help="run directory, recording directory or .mcap file")
@@ -120,6 +107,23 @@ def _parser() -> argparse.ArgumentParser:
     layouts = sub.add_parser("layouts", help="write nominal skin layout files (real robot)")
     layouts.add_argument("directory")
     return parser
+
+
+def _following_arguments(sub: Any, sim: argparse.ArgumentParser) -> None:
+    """``phri sim --baseline / --no-baseline`` and the ``phri followability`` sub-command."""
+    sim.add_argument("--baseline", dest="baseline", action="store_true", default=None,
+                     help="also run the scenario with a motionless robot (zero commands) and "
+                          "print its following metrics beside the run's (default: waltz only)")
+    sim.add_argument("--no-baseline", dest="baseline", action="store_false",
+                     help="no motionless baseline")
+    follow = sub.add_parser("followability", help="the followability map: fastest lead "
+                            "followed per direction and turn (polar PNG + JSON)")
+    follow.add_argument("--out", default="runs/followability", help="output directory")
+    follow.add_argument("--short", action="store_true",
+                        help="CI form: two speeds per direction, 0.15 m / 30° leads")
+    follow.add_argument("--seed", type=int, default=0, help="skin noise seed")
+    follow.add_argument("--motionless", action="store_true",
+                        help="the map of a motionless robot (zero-command stub)")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -202,8 +206,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
     metrics["zero_velocity_at_exit"] = result.zero_at_exit
     metrics["seed"] = args.seed
     summary: dict[str, Any] = {"run_wall_time": run_wall}
-    if "following" in metrics:
-        _following(args, name, metrics, runs[0].metrics.following_series(), out)
+    _following(args, name, metrics, runs, out)
     if record_dir is not None and not args.no_plots:
         from phri_bringup.plots import make_plots
 
@@ -227,12 +230,18 @@ def cmd_sim(args: argparse.Namespace) -> int:
     return 0
 
 
-def _following(args: argparse.Namespace, name: str, metrics: dict[str, Any], series: Any,
+def _following(args: argparse.Namespace, name: str, metrics: dict[str, Any], runs: list[Any],
                out: Path) -> None:
-    """The motionless baseline (unless ``--no-baseline``) into ``metrics['motionless']``, the
-    side-by-side table, and ``plots/following.png``."""
+    """For a scenario with following metrics (the waltz): the motionless baseline (unless
+    ``--no-baseline``) into ``metrics['motionless']``, the side-by-side table, and
+    ``plots/following.png``."""
     from phri_bringup.following_report import plot_following, run_motionless, side_by_side
 
+    if "following" not in metrics:
+        if args.baseline:
+            _log(f"--baseline: scenario {name} has no following metrics; no baseline run")
+        return
+    series = runs[0].metrics.following_series()
     still, still_series = None, None
     if args.baseline is not False:
         _log("motionless baseline: the same scenario with zero commands")

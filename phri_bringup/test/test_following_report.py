@@ -87,3 +87,20 @@ def test_phri_followability_short_writes_the_map(tmp_path: Path) -> None:
     fastest = {r["heading_deg"]: r["fastest_followed"] for r in result["translate"]}
     assert fastest[0] >= 0.05
     assert result["cpu_time"] < 60.0
+
+
+@pytest.mark.ros
+def test_phri_sim_waltz_runs_the_motionless_baseline_beside_the_run(tmp_path: Path) -> None:
+    """`phri sim` on the waltz: metrics.json holds the `motionless` run, stderr the table,
+    plots/following.png the plot; the motionless robot does not move, the robot does."""
+    out = tmp_path / "run"
+    proc = subprocess.run([sys.executable, "-m", "phri_bringup.cli", "sim", "--scenario", "waltz",
+                           "--duration", "6", "--no-record", "--out", str(out)],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    metrics = json.loads((out / "metrics.json").read_text())
+    still = metrics["motionless"]
+    assert still["controller"] == "stub (zero commands)"
+    assert still["following"]["travel"]["robot"] < 0.005 < metrics["following"]["travel"]["robot"]
+    assert "| robot | motionless" in " ".join(proc.stderr.split())
+    assert (out / "plots" / "following.png").read_bytes()[:4] == b"\x89PNG"
