@@ -106,6 +106,7 @@ ROWS: tuple[tuple[str, str, float], ...] = (
     ("travel.partner", "partner travel [m]", 1.0),
     ("travel.robot", "robot travel [m]", 1.0),
     ("lag", "lag [s]", 1.0),
+    ("heading_lag", "heading lag [s]", 1.0),
     ("peak_partner_force", "peak force on the partner [N]", 1.0),
     ("pass.all", "within the bars", 1.0),
 )

@@ -25,7 +25,8 @@ From the **start of the hold** (the first sample where the leading link is touch
   clockwise) and negative (right) increments summed, [deg] (F6);
 * lag: the shift τ ∈ [−τ_max, τ_max] that maximises the normalised cross-correlation of the
   partner's and the robot's planar velocity, ρ(τ) = Σ_t v_p(t)·v_b(t+τ) / (‖v_p‖‖v_b‖), sums
-  and norms over the samples where both shifted series overlap (F7);
+  and norms over the samples where both shifted series overlap (F7); ``heading_lag`` the same
+  for the yaw rates;
   positive τ: the robot moves after the partner. ``None`` when either stands still or the best
   ρ is below :data:`LAG_MIN_CORRELATION` (the motions are unrelated: no lag to speak of);
 * travel: planar path length of partner and robot [m] (F8).
@@ -241,6 +242,8 @@ def following_summary(series: FollowingSeries, desired_force: float, bars: Bars 
     t = np.asarray(series.times, dtype=np.float64)
     rel = relative_pose(series.base, series.partner)
     lag_s, rho = lag(t[h:], series.partner[h:, :2], series.base[h:, :2], bars.max_lag)
+    turn_lag, turn_rho = lag(t[h:], np.unwrap(series.partner[h:, 2]),
+                             np.unwrap(series.base[h:, 2]), bars.max_lag)
     out: dict[str, Any] = {
         "hold_start": float(t[h]) if t.size else 0.0,
         "held": bool(np.asarray(series.touched).any()),
@@ -252,6 +255,7 @@ def following_summary(series: FollowingSeries, desired_force: float, bars: Bars 
         "turn": {"partner": accumulated_turn(series.partner[h:, 2]),
                  "robot": accumulated_turn(series.base[h:, 2])},
         "lag": lag_s, "lag_correlation": rho,
+        "heading_lag": turn_lag, "heading_lag_correlation": turn_rho,
         "travel": {"partner": travel(series.partner[h:, :2]),
                    "robot": travel(series.base[h:, :2])},
         "bars": asdict(bars),

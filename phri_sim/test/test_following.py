@@ -90,6 +90,18 @@ def test_lag_recovers_a_known_delay() -> None:
     assert tau == pytest.approx(-0.37, abs=DT / 2)
 
 
+def test_heading_lag_of_a_robot_that_turns_later() -> None:
+    """The robot stays put but turns with the partner's heading profile 0.5 s later."""
+    partner = _partner_walk_and_turn()
+    partner[:, 2] = np.sin(0.6 * T) + 0.5 * np.sin(1.3 * T)
+    base = np.zeros_like(partner)
+    base[:, 2] = np.sin(0.6 * (T - 0.5)) + 0.5 * np.sin(1.3 * (T - 0.5))
+    out = following_summary(FollowingSeries(T, base, partner, np.full(T.size, 10.0),
+                                            np.ones(T.size, bool)), 10.0)
+    assert out["heading_lag"] == pytest.approx(0.5, abs=DT / 2)
+    assert out["lag"] is None
+
+
 def test_lag_is_none_for_a_robot_that_stands_still() -> None:
     tau, rho = lag(T, _partner_walk_and_turn()[:, :2], np.zeros((T.size, 2)), max_lag=2.0)
     assert tau is None and rho == 0.0
