@@ -313,6 +313,10 @@ def cmd_plot(args: argparse.Namespace) -> int:
         scenario = json.loads(metrics.read_text(encoding="utf-8")).get("scenario")
     out = Path(args.out) if args.out else (run if run.is_dir() else run.parent) / "plots"
     files, numbers = make_plots(run, out, scenario=scenario)
+    if numbers.get("scenario") == "waltz":
+        from phri_bringup.following_report import replot_following
+
+        files.append(replot_following(run, out / "following.png"))
     for f in files:
         print(f)
     print(json.dumps(numbers, indent=2))

@@ -65,6 +65,16 @@ def series_from_recording(path: str | Path, link: str) -> FollowingSeries:
                            force > 0.0)
 
 
+def replot_following(recording: str | Path, path: Path) -> Path:
+    """``following.png`` of a recorded waltz from its ground-truth topics alone (no baseline:
+    the recording holds one run): ``phri plot``."""
+    from phri_sim.following import following_summary
+    from phri_sim.scenarios import WALTZ_FORCE, WALTZ_LINK
+
+    series = series_from_recording(recording, WALTZ_LINK)
+    return plot_following(path, series, following_summary(series, WALTZ_FORCE))
+
+
 def run_motionless(scenario: str, *, duration: float | None, short: bool, seed: int,
                    progress: Progress | None = None
                    ) -> tuple[dict[str, Any], FollowingSeries | None]:

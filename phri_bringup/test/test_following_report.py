@@ -14,7 +14,7 @@ from typing import Any
 import pytest
 
 from phri_bringup.cli import _parser
-from phri_bringup.following_report import series_from_recording, side_by_side
+from phri_bringup.following_report import replot_following, series_from_recording, side_by_side
 from phri_sim.following import following_summary
 from phri_sim.scenarios import WALTZ_LINK
 
@@ -40,6 +40,8 @@ def test_following_recomputed_from_the_recording_matches_the_run(tmp_path: Path)
                 "force_error_rms", "band_share"):
         assert again[key] == pytest.approx(live[key], rel=0.02, abs=1e-4), key
     assert again["travel"]["partner"] == pytest.approx(live["travel"]["partner"], rel=0.02)
+    png = replot_following(directory, tmp_path / "following.png")  # what `phri plot` draws
+    assert png.read_bytes()[:4] == b"\x89PNG"
 
 
 def test_side_by_side_puts_robot_and_motionless_in_columns() -> None:
