@@ -176,7 +176,12 @@ def plot_following(path: Path, robot: FollowingSeries, summary: dict[str, Any],
     """``following.png``: partner pose in the base frame (Δx, Δy, Δφ from the hold start), the
     waist force in its band, partner and robot headings; the motionless run dashed."""
     bars = summary["bars"]
-    fig, axes = _figure(4, "Following: what the partner feels (robot solid, motionless dashed)")
+    title = (f"Following: band {100 * summary['band_share']:.0f} %, drift "
+             f"{100 * summary['position_drift_max']:.1f} cm / "
+             f"{summary['heading_drift_max_deg']:.1f}° max, within the bars: "
+             f"{'yes' if summary['pass']['all'] else 'NO'}")
+    fig, axes = _figure(4, title + ("\n(robot solid, motionless dashed)" if motionless
+                                    is not None else ""))
     runs = [(robot, "-", 1.0)] + ([(motionless, "--", 0.6)] if motionless is not None else [])
     for series, style, alpha in runs:
         t, dxy, dphi = _drift(series)
