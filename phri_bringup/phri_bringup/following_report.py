@@ -248,7 +248,10 @@ def plot_map(path: Path, result: dict[str, Any]) -> Path:
         for c in r["cells"]:
             ax.plot(np.radians(r["heading_deg"]), c["speed"], "x" if not c["pass"]["all"]
                     else ".", color="C3" if not c["pass"]["all"] else "C2")
-    ax.set_title("lead translation [m/s], robot frame (0° forward, 90° left)", fontsize=9)
+    ax.set_title("lead translation [m/s], robot frame: 0° forward, 90° left = into the\n"
+                 "left forearm, 270° away from it (dots passed, crosses failed)", fontsize=9)
+    ax.set_rlabel_position(112.5)
+    ax.tick_params(axis="y", labelsize=7)
     ax.legend(loc="lower left", fontsize=8)
     bx = fig.add_subplot(1, 2, 2)
     turns = result["turn"]
@@ -259,7 +262,8 @@ def plot_map(path: Path, result: dict[str, Any]) -> Path:
                     color="C3" if not c["pass"]["all"] else "C2")
     bx.set_ylabel("turn rate [rad/s]")
     bx.set_title("fastest turn followed (x = tried and failed)", fontsize=9)
-    fig.suptitle(f"Followability map ({result.get('controller', 'node')}); bars: band ≥ "
+    who = "motionless robot" if result.get("controller") == "stub" else "whole-body controller"
+    fig.suptitle(f"Followability map ({who}); bars: band ≥ "
                  f"{100 * result['bars']['band_share_min']:.0f} %, drift ≤ "
                  f"{100 * result['bars']['position_drift_max']:.0f} cm / "
                  f"{result['bars']['heading_drift_max_deg']:.0f}°, partner ≤ "
