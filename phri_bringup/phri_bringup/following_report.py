@@ -239,7 +239,7 @@ def plot_map(path: Path, result: dict[str, Any]) -> Path:
     import matplotlib.pyplot as plt
 
     fig = plt.figure(figsize=(10, 5))
-    ax = fig.add_subplot(1, 2, 1, projection="polar")
+    ax: Any = fig.add_subplot(1, 2, 1, projection="polar")  # PolarAxes
     rows = result["translate"]
     theta = np.radians([r["heading_deg"] for r in rows] + [rows[0]["heading_deg"]])
     fastest = [r["fastest_followed"] for r in rows] + [rows[0]["fastest_followed"]]
