@@ -55,7 +55,7 @@ from phri_description.description import SKIN_LINKS
 from phri_sim.bridge import SimBridgeNode
 from phri_sim.faults import DEFAULT_FAULT_TIME, FAULT_KINDS
 from phri_sim.metrics import MetricsRecorder
-from phri_sim.scenarios import SCENARIOS, Scenario
+from phri_sim.scenarios import SCENARIOS, WALTZ_FORCE, WALTZ_LINK, Scenario
 
 Recorder = Callable[[Context], Node]
 Progress = Callable[[float, float], None]
@@ -161,9 +161,11 @@ def _dance_ranges(params: Mapping[str, Any]) -> FloatArray | None:
 def _metrics(scenario: Scenario, sim: Any, fault_time: float | None) -> MetricsRecorder:
     """The run's metrics recorder, watching every physics step of ``sim``."""
     params = scenario.controller_parameters
+    desired = params.get(f"{WALTZ_LINK}.desired_force")
     metrics = MetricsRecorder(
         scenario.metrics, float(params.get("velocity_limit", paper.VELOCITY_LIMIT)),
         _dance_ranges(params), fault_time=fault_time,
+        desired_force=WALTZ_FORCE if desired is None else float(np.linalg.norm(desired)),
     )
     metrics.watch(sim)
     return metrics
