@@ -5,7 +5,9 @@ Per skin link, the contacts between the person's geoms and the link's geoms give
 * the ground truth (:class:`LinkGroundTruth`): the total force the person exerts on the link,
   the sum of the contacts' normal forces and their force-weighted mean point;
 * per patch on the link, the taxel forces of the footprint model (:mod:`phri_sim.skin`): each
-  person geom's normal force spread over the taxels it compresses, plus seeded sensor noise.
+  person geom's normal force spread over the taxels it compresses; the seeded sensor model
+  (:mod:`phri_sim.sensor_model`) turns them into a board's raw counts, or into the reading of a
+  perfectly tared driver.
 
 Both are computed lazily, once per physics state (:meth:`SimSkins.invalidate` after a step).
 """
@@ -20,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from phri_description.description import CylindricalPatch
+from phri_sim.sensor_model import PatchSensor
 from phri_sim.sim_robot import SimRobot
 from phri_sim.skin import (
     CapsuleShape,
@@ -71,12 +74,14 @@ class SimSkins:
         model, data: the scene.
         patches: the description's skin patches.
         config: skin sensor model.
-        seed: seed of the sensor-noise generator (same seed → same noise).
+        seed: seed of the sensor model (per-taxel constants and noise; same seed → same
+            readings).
         person_geoms: ids of the geoms that belong to the person.
         robot: gives the link poses.
 
     Attributes:
         patches: patch name → its taxels and footprint model.
+        sensors: patch name → its sensor model.
         patch_link: patch name → the link it covers.
         skin_links: the links that carry skin, each once, in patch order.
     """
@@ -86,6 +91,8 @@ class SimSkins:
                  person_geoms: Collection[int], robot: SimRobot) -> None:
         self.model, self.data = model, data
         self.patches = {p.name: SkinPatchModel(layout_for_patch(p), config) for p in patches}
+        self.sensors = {p.name: PatchSensor(self.patches[p.name].size, config.sensor, seed, i)
+                        for i, p in enumerate(patches)}
         self.patch_link = {p.name: p.link for p in patches}
         self.skin_links = tuple(dict.fromkeys(p.link for p in patches))
         self._body_link = {model.body(link).id: link for link in self.skin_links}
@@ -102,7 +109,8 @@ class SimSkins:
         self._dirty = True
 
     def reset_noise(self) -> None:
-        """Restart the sensor-noise generator from the seed."""
+        """Restart the sensor-noise generator from the seed (the per-taxel constants of the
+        sensor model belong to the boards and stay)."""
         self._rng = np.random.default_rng(self._seed)
 
     def _touches(self) -> Iterator[tuple[int, int, str, float]]:
@@ -172,17 +180,24 @@ class SimSkins:
             out[name] = forces
         return out
 
-    def add_noise(self, patch: str, forces: FloatArray) -> FloatArray:
-        """One sample of a patch's sensor noise added to ``forces`` (new array, clipped at 0);
-        draws from the seeded generator."""
-        return self.patches[patch].add_noise(forces, self._rng)
+    def counts(self, patch: str, forces: FloatArray) -> NDArray[np.uint16]:
+        """One sample of a patch's raw counts for true taxel forces ``forces`` [N] (sensor
+        model, :mod:`phri_sim.sensor_model`); draws from the seeded generator."""
+        return self.sensors[patch].counts(forces, self._rng)
+
+    def reading(self, patch: str, forces: FloatArray) -> FloatArray:
+        """One sample of what a patch reports [N] for true forces ``forces`` without the
+        driver in the loop: its counts, read with a perfect tare (sensor model)."""
+        sensor = self.sensors[patch]
+        return sensor.reading(sensor.counts(forces, self._rng))
 
     def forces(self, noise: bool = True) -> dict[str, FloatArray]:
-        """Per-patch taxel forces [N] now (patch → (N,)), plus sensor noise when ``noise``."""
+        """Per-patch taxel forces [N] now (patch → (N,)): the sensor model's reading when
+        ``noise``, else the true (footprint) forces."""
         clean = self.clean_forces()
         if not noise:
             return clean
-        return {name: self.add_noise(name, f) for name, f in clean.items()}
+        return {name: self.reading(name, f) for name, f in clean.items()}
 
     def ground_truth(self) -> Mapping[str, LinkGroundTruth]:
         """True contact per skin link at the current state (see :class:`LinkGroundTruth`)."""

@@ -18,8 +18,8 @@ taxels' total equals the contact force exactly (before noise), the pressure is h
 person sinks in deepest, and even a tangent sphere lights a disc of radius ≈ √(2 R_eff h)
 (R_eff = R_person R_link / (R_person + R_link)), i.e. several taxels at 7.5 mm pitch.
 
-Sensor model: additive Gaussian noise of standard deviation ``noise_std`` per taxel and sample,
-then clipped at 0 (the convention: ``force`` ≥ 0 presses on the taxel).
+Sensor model (:mod:`phri_sim.sensor_model`): ADC counts with per-taxel gain error and zero
+offset, noise, quantisation and a few dead taxels; :class:`SkinConfig` carries its parameters.
 """
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from phri_description.description import CylindricalPatch
+from phri_sim.sensor_model import SensorConfig
 from skin_driver.layout import SkinLayout, cylindrical_patch
 
 FloatArray = NDArray[np.float64]
@@ -38,21 +39,32 @@ FloatArray = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class SkinConfig:
-    """Skin sensor model.
+    """Skin model: footprint and sensor (:class:`~phri_sim.sensor_model.SensorConfig`).
 
     Attributes:
         softness: thickness h of the compliant layer of the footprint model [m].
-        noise_std: per-taxel Gaussian noise [N] (0 = noiseless).
+        noise_std: per-taxel noise, standard deviation [N] (0 = noiseless).
+        gain_error_std: per-taxel relative gain error, standard deviation [-].
+        offset_std: per-taxel zero offset, standard deviation [count].
+        dead_taxels: taxels per patch that never respond [-].
     """
 
     softness: float = 0.004
     noise_std: float = 0.005
+    gain_error_std: float = 0.05
+    offset_std: float = 20.0
+    dead_taxels: int = 3
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.softness) and self.softness > 0.0):
             raise ValueError(f"skin softness must be a positive length [m], got {self.softness}")
-        if not (np.isfinite(self.noise_std) and self.noise_std >= 0.0):
-            raise ValueError(f"skin noise_std must be ≥ 0 [N], got {self.noise_std}")
+        self.sensor  # noqa: B018  (validates the sensor settings)
+
+    @property
+    def sensor(self) -> SensorConfig:
+        """The sensor model's parameters."""
+        return SensorConfig(self.noise_std, self.gain_error_std, self.offset_std,
+                            self.dead_taxels)
 
 
 def layout_for_patch(patch: CylindricalPatch) -> SkinLayout:
@@ -177,11 +189,3 @@ class SkinPatchModel:
             weights = footprint_weights(self.positions[near], local, h)
             out[near] += distribute(normal_force, weights)
         return out
-
-    def add_noise(self, forces: FloatArray, rng: np.random.Generator) -> FloatArray:
-        """Sensor noise (module docstring); returns a new array, clipped at 0."""
-        if self.config.noise_std <= 0.0:
-            return forces.copy()
-        noisy = forces + rng.normal(0.0, self.config.noise_std, self.size)
-        return np.asarray(np.maximum(noisy, 0.0))
-
