@@ -16,6 +16,7 @@ Interface, parameters and ground-truth topics: ``docs/phri_sim.md``.
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -39,6 +40,7 @@ from std_msgs.msg import Float64MultiArray, Header
 from phri_common import paper
 from phri_common.params import ParamSpec, ParamValue
 from phri_common.planar import quaternion_from_yaw
+from phri_common.records import TaxelArray
 from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
@@ -239,6 +241,8 @@ class SimBridgeNode(Node):
             self.skin_link.tare(lambda patch: self.sim.skins.counts(patch, zeros[patch]),
                                 round(self._skin_every * self.sim.dt * 1e9))
         self._readings: dict[str, np.ndarray] = {}
+        self.taxel_sink: Callable[[str, TaxelArray], None] | None = None
+        """Receives every published taxel array directly (see :meth:`_publish_readings`)."""
         self._idle_every = int(v["skin_idle_decimation"])
         self._idle_count = dict.fromkeys(self.sim.patches, 0)
         self._was_touched = dict.fromkeys(self.sim.patches, True)
@@ -370,15 +374,17 @@ class SimBridgeNode(Node):
         With the driver in the loop every sample goes through it (its moving average needs
         them all); without it, a sample that is not published is not computed (nothing would
         see it). With ``skin_idle_decimation`` N > 1 a patch nobody touches (and that was
-        untouched in its last sample) is sampled only every N-th time.
+        untouched in its last sample) is read only once N samples have passed since its last
+        reading (so every N skin periods, driver or not).
         """
+        for name in self._idle_count:
+            self._idle_count[name] += 1
         if self.skin_link is None and not publish:
             return
         every = self._idle_every
         due: dict[str, np.ndarray] = {}
         for name, clean in self.sim.clean_skin_forces().items():
             touched = bool(np.any(clean > 0.0))
-            self._idle_count[name] += 1
             if every <= 1 or touched or self._was_touched[name] or self._idle_count[name] >= every:
                 self._idle_count[name] = 0
                 self._was_touched[name] = touched
@@ -409,12 +415,23 @@ class SimBridgeNode(Node):
 
     def _publish_readings(self) -> None:
         """One taxel array per patch with a reading since the last publication (frame = the
-        patch's link), through the sensor faults; :attr:`published_patches` lists them."""
+        patch's link), through the sensor faults; :attr:`published_patches` lists them.
+
+        With a :attr:`taxel_sink` (the lock-step runner: contact estimation's ``on_frame``, as
+        in ``skin_contact_node``) the frame is handed over directly and the topic is published
+        only while someone subscribes (a recorder)."""
         stamp = self.stamp_ns
+        sink = self.taxel_sink
         self.published_patches = []
         for name, reading in self._readings.items():
             forces = self.faults.taxels(name, reading, self.fault_clock)
-            self.skin_pubs[name].publish(self.encoders[name].encode(forces, stamp))
+            if sink is not None:
+                layout = self.sim.patches[name].layout
+                sink(name, TaxelArray(layout.positions, layout.normals, forces, None,
+                                      layout.link, stamp))
+            pub = self.skin_pubs[name]
+            if sink is None or pub.get_subscription_count() > 0:
+                pub.publish(self.encoders[name].encode(forces, stamp))
             self.published_patches.append(name)
         self._readings = {}
 

@@ -105,7 +105,7 @@ class Fidelity:
 
 FIDELITIES = {
     "fast": Fidelity(PHYSICS_TIMESTEP, SKIN_RATE_HZ, 0.0, SKIN_IDLE_DECIMATION),
-    "paper": Fidelity(0.002, paper.SKIN_RATE_HZ, paper.CONTROL_RATE_HZ, SKIN_IDLE_DECIMATION),
+    "paper": Fidelity(0.002, paper.SKIN_RATE_HZ, paper.CONTROL_RATE_HZ, 5 * SKIN_IDLE_DECIMATION),
 }
 """``fast``: 5 ms physics, the skin sampled once per control period (100 Hz). ``paper``: the
 paper's 2 ms physics and 500 Hz skin; contact estimation gets the newest reading once per
@@ -158,6 +158,7 @@ def _estimation_node(context: Context, scenario: Scenario) -> Node:
 
     return ContactEstimationNode(context=context, parameter_overrides=[
         Parameter("use_sim_time", value=True), Parameter("publish_markers", value=False),
+        Parameter("subscribe_taxels", value=False),
         *_params(scenario.estimation_parameters),
     ])
 
@@ -250,6 +251,9 @@ class ScenarioRun:
             "skin_driver": skin_driver, "fault": fault, "fault_time": float(fault_time),
         }))
         self.estimation = _estimation_node(context, sc)
+        # The bridge hands each taxel array to the estimator directly (as skin_contact_node
+        # composes driver and estimator), and publishes the topic only for subscribers.
+        self.bridge.taxel_sink = self.estimation.on_frame
         self.controller = _controller_node(controller, context, sc)
         self.is_stub = controller == "stub"
         self.probe = Node("phri_sim_runner", context=context)
@@ -340,7 +344,7 @@ class ScenarioRun:
         periods = round(self.duration / self.bridge.period)
         # Let discovery settle and the nodes see the initial state before the first tick.
         self.spin_until(lambda: all(
-            self.bridge.count_subscribers(f"skin/{p}/taxels") > 0 for p in self.bridge.sim.patches
+            self.estimation.count_subscribers(f"contacts/{link}") > 0 for link in SKIN_LINKS
         ) and self.bridge.count_subscribers("/clock") > 0, "discovery")
         start = time.perf_counter()
         cpu_start = time.process_time()

@@ -174,7 +174,8 @@ class SimSkins:
             if contacts:
                 rot, pos = self._robot.link_pose(link)
                 forces = patch.forces(rot, pos, [(geom_shape(self.model, self.data, g), fn)
-                                                 for g, fn in contacts])
+                                                 for g, fn in contacts],
+                                      keys=[g for g, _ in contacts])
             else:
                 forces = np.zeros(patch.size)
             out[name] = forces
