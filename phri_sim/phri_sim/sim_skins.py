@@ -100,7 +100,11 @@ class SimSkins:
         self._robot = robot
         self._seed = seed
         self._rng = np.random.default_rng(seed)
-        self._truth: dict[str, LinkGroundTruth] = {}
+        self._truth: dict[str, LinkGroundTruth] | None = None
+        self._touch_list: list[tuple[int, str, float, FloatArray]] = []
+        self._zeros = {name: np.zeros(p.size) for name, p in self.patches.items()}
+        for zeros in self._zeros.values():
+            zeros.setflags(write=False)
         self._contacts: dict[str, list[tuple[int, float]]] = {}
         self._dirty = True
 
@@ -131,41 +135,51 @@ class SimSkins:
                 yield i, person, link, sign
 
     def _update(self) -> None:
-        """Collect person↔skin-link contacts: per link, (person geom, normal force) and the
-        ground truth (once per state)."""
+        """Collect person↔skin-link contacts (once per state): per link, (person geom, normal
+        force); the ground truth is built from them only when asked for."""
         if not self._dirty:
             return
         self._dirty = False
-        m, d = self.model, self.data
+        per_link: dict[str, dict[int, float]] = {}
+        touches: list[tuple[int, str, float, FloatArray]] = []
+        if self.data.ncon:
+            m, d = self.model, self.data
+            for i, person, link, sign in self._touches():
+                wrench = np.zeros(6)
+                mujoco.mj_contactForce(m, d, i, wrench)
+                touches.append((i, link, sign, wrench))
+                forces = per_link.setdefault(link, {})
+                forces[person] = forces.get(person, 0.0) + float(wrench[0])
+        self._touch_list = touches
+        self._truth = None
+        self._contacts = {link: list(v.items()) for link, v in per_link.items()}
+
+    def _build_truth(self) -> dict[str, LinkGroundTruth]:
+        """The ground truth per skin link from the collected contacts."""
+        d = self.data
         truth = {link: LinkGroundTruth(link) for link in self.skin_links}
-        per_link: dict[str, dict[int, float]] = {link: {} for link in self.skin_links}
         weighted = {link: np.zeros(3) for link in self.skin_links}
-        wrench = np.zeros(6)
-        for i, person, link, sign in self._touches():
+        for i, link, sign, wrench in self._touch_list:
             con = d.contact[i]
-            mujoco.mj_contactForce(m, d, i, wrench)
             frame = con.frame.reshape(3, 3)
             # Contact force acts on geom2 along +normal (frame row 0 points geom1 → geom2).
-            f_world = sign * (frame.T @ wrench[:3])
             fn = float(wrench[0])
             gt = truth[link]
             gt.in_contact = True
-            gt.force_world += f_world
+            gt.force_world += sign * (frame.T @ wrench[:3])
             gt.normal_force += fn
             weighted[link] += fn * con.pos
-            per_link[link][person] = per_link[link].get(person, 0.0) + fn
         for link, gt in truth.items():
             if gt.in_contact:
                 rot, pos = self._robot.link_pose(link)
                 gt.force_link = rot.T @ gt.force_world
                 if gt.normal_force > 0.0:
                     gt.center_link = rot.T @ (weighted[link] / gt.normal_force - pos)
-        self._truth = truth
-        self._contacts = {link: list(v.items()) for link, v in per_link.items()}
+        return truth
 
     def clean_forces(self) -> dict[str, FloatArray]:
         """Per-patch noise-free taxel forces [N] now (patch → (N,)), the footprint model of
-        :mod:`phri_sim.skin`; an untouched patch is all zeros."""
+        :mod:`phri_sim.skin`; an untouched patch is all zeros (a shared read-only array)."""
         self._update()
         out: dict[str, FloatArray] = {}
         for name, patch in self.patches.items():
@@ -177,7 +191,7 @@ class SimSkins:
                                                  for g, fn in contacts],
                                       keys=[g for g, _ in contacts])
             else:
-                forces = np.zeros(patch.size)
+                forces = self._zeros[name]
             out[name] = forces
         return out
 
@@ -203,4 +217,6 @@ class SimSkins:
     def ground_truth(self) -> Mapping[str, LinkGroundTruth]:
         """True contact per skin link at the current state (see :class:`LinkGroundTruth`)."""
         self._update()
+        if self._truth is None:
+            self._truth = self._build_truth()
         return self._truth

@@ -107,7 +107,7 @@ class SphereShape:
         different shape): a signed distance changes by at most this much."""
         if not isinstance(other, SphereShape) or other.radius != self.radius:
             return math.inf
-        return float(np.linalg.norm(other.center - self.center))
+        return math.dist(other.center, self.center)
 
 
 @dataclass(frozen=True)
@@ -143,7 +143,7 @@ class CapsuleShape:
         different shape; a segment's points move at most as far as its ends)."""
         if not isinstance(other, CapsuleShape) or other.radius != self.radius:
             return math.inf
-        return float(max(np.linalg.norm(other.a - self.a), np.linalg.norm(other.b - self.b)))
+        return max(math.dist(other.a, self.a), math.dist(other.b, self.b))
 
 
 Shape = SphereShape | CapsuleShape
