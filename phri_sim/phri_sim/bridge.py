@@ -236,10 +236,8 @@ class SimBridgeNode(Node):
                                              self.sim.dt)
         self.skin_link: SkinLink | None = None
         if bool(v["skin_driver"]):
-            self.skin_link = SkinLink([p.layout for p in self.sim.patches.values()])
-            zeros = {name: np.zeros(p.size) for name, p in self.sim.patches.items()}
-            self.skin_link.tare(lambda patch: self.sim.skins.counts(patch, zeros[patch]),
-                                round(self._skin_every * self.sim.dt * 1e9))
+            self.skin_link = SkinLink(self.sim.skins.sensors)
+            self.skin_link.tare(self._skin_every * self.sim.dt)
         self._readings: dict[str, np.ndarray] = {}
         self.taxel_sink: Callable[[str, TaxelArray], None] | None = None
         """Receives every published taxel array directly (see :meth:`_publish_readings`)."""
@@ -400,8 +398,7 @@ class SimBridgeNode(Node):
             for name, forces in clean.items():
                 self._readings[name] = self.sim.skin_reading(name, forces)
             return
-        counts = {name: self.sim.skins.counts(name, f) for name, f in clean.items()}
-        self._readings.update(self.skin_link.send(counts, self.stamp_ns))
+        self._readings.update(self.skin_link.send(clean, self.stamp_ns * 1e-9))
 
     def publish_skin(self, *, force: bool = False) -> None:
         """Publish the skin now: every patch sampled at the current state with ``force`` (not

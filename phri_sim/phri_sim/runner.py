@@ -38,7 +38,7 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import rclpy
@@ -57,6 +57,9 @@ from phri_sim.bridge import SimBridgeNode
 from phri_sim.faults import DEFAULT_FAULT_TIME, FAULT_KINDS
 from phri_sim.metrics import MetricsRecorder
 from phri_sim.scenarios import SCENARIOS, Scenario
+
+if TYPE_CHECKING:
+    from contact_estimation.node import ContactEstimationNode
 
 Recorder = Callable[[Context], Node]
 Progress = Callable[[float, float], None]
@@ -152,7 +155,7 @@ def _params(values: dict[str, Any]) -> list[Parameter]:
     return [Parameter(name, value=value) for name, value in values.items()]
 
 
-def _estimation_node(context: Context, scenario: Scenario) -> Node:
+def _estimation_node(context: Context, scenario: Scenario) -> ContactEstimationNode:
     """The contact estimation node with the scenario's parameters, on sim time, no markers."""
     from contact_estimation.node import ContactEstimationNode
 

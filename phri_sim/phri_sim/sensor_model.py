@@ -13,7 +13,7 @@ A real board reports, per taxel ``j`` and sample, an unsigned 16-bit count::
   calibrated zero by a per-taxel offset (removed by the driver's tare, never by the model);
 * ``n_j`` ~ N(0, ``noise_std`` / G) [count]: noise, independent per taxel and sample;
 * dead taxels (``dead_taxels`` per patch, at seeded positions, not declared in the layout):
-  their count stays at round(z_j) whatever the force (a broken trace reads its zero).
+  gain 0, so their count is z_j + n_j whatever the force (a broken sensing element).
 
 ``round`` is the ADC's quantisation; the clip at 0 and 65535 its range (65535 = saturated).
 
@@ -24,24 +24,24 @@ quantisation and dead taxels stay in that reading, so the estimation error is me
 assumed. With the driver in the loop the counts go on the wire instead
 (:mod:`phri_sim.skin_link`) and the driver's own tare, moving average and calibration apply.
 
-Randomness. The per-taxel constants (g, z, dead set) are drawn once per patch from
-``seed`` and the patch index (they belong to the board, not to the run's noise). The noise of a
-sample is a slice of a seeded pool of Gaussian samples starting at an offset drawn from the
-run's generator: ≈ 2 µs for 2,000 taxels instead of 30 µs for fresh draws (the 500 Hz skin
-samples 1,500 patch frames per simulated second). A taxel gets the same noise value in two
-frames only if their offsets coincide (probability 1 / :data:`NOISE_POOL`); neighbouring
-taxels of frames with nearby offsets share shifted values, which no consumer can see.
+The board is skin_driver's simulated board (:class:`~skin_driver.sim_board.SimBoard`), given
+the true per-taxel constants (:class:`PatchSensor`). Randomness: the per-taxel constants (g, z,
+dead set) are drawn once per patch from ``seed`` and the board id (they belong to the board);
+the noise from the board's own generator, seeded from both and restarted by
+:meth:`PatchSensor.reset_noise`.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
 from skin_driver.calibration import CalibrationConfig, counts_to_force
+from skin_driver.layout import SkinLayout
+from skin_driver.sim_board import SimBoard
 
 FloatArray = NDArray[np.float64]
 
@@ -52,8 +52,6 @@ NOMINAL_ZERO = CalibrationConfig().default_offset
 """Calibrated zero of (S1) [count] (= skin_driver's ``default_offset``)."""
 FULL_SCALE = 65535
 """Largest count (16-bit ADC) [count]."""
-NOISE_POOL = 1 << 16
-"""Gaussian samples in a patch's noise pool (module docstring)."""
 
 
 @dataclass(frozen=True)
@@ -83,45 +81,50 @@ class SensorConfig:
 
 
 class PatchSensor:
-    """One patch's sensor: true forces → counts (S1) and the perfectly tared reading.
+    """One patch's skin board (S1) and the perfectly tared reading of its counts.
+
+    The board is skin_driver's :class:`~skin_driver.sim_board.SimBoard` (``count = offset +
+    force / gain + noise``, rounded and clipped) given the patch's *true* per-taxel constants:
+    gain G / (1 + g_j), offset z_j, gain 0 for a dead taxel (its count is its zero plus noise,
+    whatever the force). The driver calibrates with the nominal G and zero.
 
     Args:
-        size: taxels of the patch.
+        layout: the patch's layout (nominal calibration).
         config: the model's parameters.
-        seed: seed of the per-taxel constants and the noise pool.
-        patch_index: index of the patch (gives every board its own constants).
+        seed: seed of the per-taxel constants and of the noise.
+        board_id: the board's id (also makes every board's constants its own).
     """
 
-    def __init__(self, size: int, config: SensorConfig, seed: int, patch_index: int) -> None:
-        if size < 1:
-            raise ValueError(f"a patch needs at least one taxel, got {size}")
-        self.size, self.config = size, config
-        board = np.random.default_rng([seed, patch_index, 0x5E115])
+    def __init__(self, layout: SkinLayout, config: SensorConfig, seed: int,
+                 board_id: int) -> None:
+        size = layout.size
+        self.layout, self.config, self.board_id, self._seed = layout, config, board_id, seed
+        board = np.random.default_rng([seed, board_id, 0x5E115])
         gain_error = board.normal(0.0, config.gain_error_std, size)
-        self.sensitivity = np.maximum(1.0 + gain_error, 0.0) / NOMINAL_GAIN
-        """(1 + g_j) / G [count/N]."""
         self.zero = NOMINAL_ZERO + board.normal(0.0, config.offset_std, size)
         """True zero z_j [count]."""
         self.dead = np.zeros(size, bool)
         self.dead[board.choice(size, min(config.dead_taxels, size), replace=False)] = True
-        self._dead_counts = np.clip(np.rint(self.zero[self.dead]), 0, FULL_SCALE)
-        sigma = config.noise_std / NOMINAL_GAIN
-        self._pool = board.normal(0.0, sigma, NOISE_POOL + size) if sigma > 0.0 else None
+        true_gain = NOMINAL_GAIN / np.maximum(1.0 + gain_error, 1e-6)
+        true_gain[self.dead] = 0.0
+        self._true_layout = replace(layout, gains=true_gain, offsets=self.zero)
+        self.reset_noise()
 
-    def counts(self, forces: FloatArray, rng: np.random.Generator) -> NDArray[np.uint16]:
-        """One sample (S1): the (N,) counts for true taxel forces ``forces`` [N] (≥ 0);
-        draws the noise offset from ``rng``."""
-        if self._pool is not None:
-            start = int(rng.integers(NOISE_POOL))
-            x = self.zero + self._pool[start:start + self.size]
-        else:
-            x = self.zero.copy()
-        if forces.any():
-            x += forces * self.sensitivity
-        x[self.dead] = self._dead_counts
-        np.rint(x, out=x)
-        np.clip(x, 0.0, FULL_SCALE, out=x)
-        return x.astype("<u2")
+    def reset_noise(self) -> None:
+        """A fresh board (sequence 0, noise restarted from the seed)."""
+        self.board = SimBoard(self.board_id, self._true_layout,
+                              noise_counts=self.config.noise_std / NOMINAL_GAIN,
+                              seed=int(np.random.SeedSequence([self._seed, self.board_id])
+                                       .generate_state(1)[0]))
+
+    def counts(self, forces: FloatArray, t: float) -> NDArray[np.uint16]:
+        """One sample (S1): the (N,) counts for true taxel forces ``forces`` [N] at time ``t``
+        [s]."""
+        return self.board.counts(forces, t)
+
+    def frame(self, forces: FloatArray, t: float) -> bytes:
+        """One sample as the bytes of a protocol-v1 frame (board time ``t`` [s])."""
+        return self.board.frame(forces, t)
 
     def reading(self, counts: NDArray[np.integer]) -> FloatArray:
         """Forces [N] a perfectly tared, unfiltered driver reports for ``counts``:

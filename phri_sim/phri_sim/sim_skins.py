@@ -91,15 +91,13 @@ class SimSkins:
                  person_geoms: Collection[int], robot: SimRobot) -> None:
         self.model, self.data = model, data
         self.patches = {p.name: SkinPatchModel(layout_for_patch(p), config) for p in patches}
-        self.sensors = {p.name: PatchSensor(self.patches[p.name].size, config.sensor, seed, i)
+        self.sensors = {p.name: PatchSensor(self.patches[p.name].layout, config.sensor, seed, i)
                         for i, p in enumerate(patches)}
         self.patch_link = {p.name: p.link for p in patches}
         self.skin_links = tuple(dict.fromkeys(p.link for p in patches))
         self._body_link = {model.body(link).id: link for link in self.skin_links}
         self._person_geoms = frozenset(person_geoms)
         self._robot = robot
-        self._seed = seed
-        self._rng = np.random.default_rng(seed)
         self._truth: dict[str, LinkGroundTruth] | None = None
         self._touch_list: list[tuple[int, str, float, FloatArray]] = []
         self._zeros = {name: np.zeros(p.size) for name, p in self.patches.items()}
@@ -115,7 +113,8 @@ class SimSkins:
     def reset_noise(self) -> None:
         """Restart the sensor-noise generator from the seed (the per-taxel constants of the
         sensor model belong to the boards and stay)."""
-        self._rng = np.random.default_rng(self._seed)
+        for sensor in self.sensors.values():
+            sensor.reset_noise()
 
     def _touches(self) -> Iterator[tuple[int, int, str, float]]:
         """(contact index, person geom, skin link, sign) of every person↔skin-link contact; the
@@ -195,16 +194,11 @@ class SimSkins:
             out[name] = forces
         return out
 
-    def counts(self, patch: str, forces: FloatArray) -> NDArray[np.uint16]:
-        """One sample of a patch's raw counts for true taxel forces ``forces`` [N] (sensor
-        model, :mod:`phri_sim.sensor_model`); draws from the seeded generator."""
-        return self.sensors[patch].counts(forces, self._rng)
-
     def reading(self, patch: str, forces: FloatArray) -> FloatArray:
         """One sample of what a patch reports [N] for true forces ``forces`` without the
-        driver in the loop: its counts, read with a perfect tare (sensor model)."""
+        driver in the loop: its board's counts now, read with a perfect tare (sensor model)."""
         sensor = self.sensors[patch]
-        return sensor.reading(sensor.counts(forces, self._rng))
+        return sensor.reading(sensor.counts(forces, float(self.data.time)))
 
     def forces(self, noise: bool = True) -> dict[str, FloatArray]:
         """Per-patch taxel forces [N] now (patch → (N,)): the sensor model's reading when
