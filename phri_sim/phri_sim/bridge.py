@@ -61,17 +61,17 @@ PARAMS: list[ParamSpec] = [
     ParamSpec("control_period", 0.01, "simulated time per advance / timer tick", unit="s",
               low=0.002, high=0.1, read_only=True),
     ParamSpec("physics_timestep", 0.002, "MuJoCo step; must divide control_period and the "
-              "skin, state and ground-truth periods (the lock-step runner uses 0.005 with its "
-              "100 Hz skin)", unit="s", low=0.0005, high=0.005, read_only=True),
+              "skin, state and ground-truth periods (the lock-step runner's fast fidelity uses "
+              "0.005 with its 100 Hz skin)", unit="s", low=0.0005, high=0.005, read_only=True),
     ParamSpec("real_time_factor", 1.0, "free-running speed relative to the wall clock",
               low=0.01, high=100.0, read_only=True),
     ParamSpec("skin_rate_hz", paper.SKIN_RATE_HZ, "taxel-array publication rate (sim time)",
               unit="Hz",
               low=1.0, high=500.0, read_only=True),
-    ParamSpec("skin_idle_decimation", 1, "publish a patch nobody touches only every N-th skin "
-              "frame (1 = every frame; the lock-step runner uses 10: an untouched patch's frame "
-              "carries only noise below any contact threshold)", low=1, high=1000,
-              read_only=True),
+    ParamSpec("skin_idle_decimation", 1, "read a patch nobody touches only once N skin periods "
+              "have passed since its last reading (1 = every sample; the lock-step runner: "
+              "every 100 ms, as an untouched patch's frame carries only noise below any "
+              "contact threshold)", low=1, high=1000, read_only=True),
     ParamSpec("state_rate_hz", 100.0, "/joint_states, /odom and /clock rate (sim time)",
               unit="Hz", low=1.0, high=500.0, read_only=True),
     ParamSpec("ground_truth_rate_hz", 100.0, "ground-truth rate (sim time); 0 = off",

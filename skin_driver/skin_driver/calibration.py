@@ -37,7 +37,7 @@ def counts_to_force(
 ) -> FloatArray:
     """Step 1 of the pipeline: ``f = gain · (c − offset)`` [N] for raw counts ``c`` [count],
     ``gain`` [N/count] and ``offset`` [count] (per taxel or scalar)."""
-    return np.asarray(gain * (counts.astype(np.int32) - offset), dtype=np.float64)
+    return np.asarray(gain * (counts.astype(np.int32, copy=False) - offset), dtype=np.float64)
 
 
 @dataclass(frozen=True)
