@@ -58,14 +58,11 @@ ROBOT_STATE_PUBLISHER = "robot_state_publisher"
 
 LOCKSTEP_OVERRIDES: dict[str, dict[str, Any]] = {
     BRIDGE: {"lockstep": True, "skin_rate_hz": 100.0},
-    ESTIMATION: {"subscribe_taxels": False},
     CONTROLLER: {"contact_timeout": 2.0, "joint_state_timeout": 2.0, "odom_timeout": 2.0},
 }
-"""Values the lock-step runner sets instead of the parameter file's (phri_sim.runner, default
-``fidelity='fast'``: one skin frame per control period; the bridge hands the taxel arrays to
-the estimator directly, as ``skin_contact_node`` does, and publishes the topics only for
-subscribers; the controller's wall-clock input timeouts loosened so a loaded machine cannot
-trip them — the bridge's sim-time watchdog still applies)."""
+"""Values the lock-step runner sets instead of the parameter file's (phri_sim.runner: one skin
+frame per control period; the controller's wall-clock input timeouts loosened so a loaded machine
+cannot trip them — the bridge's sim-time watchdog still applies)."""
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,6 @@ Interface, parameters and ground-truth topics: ``docs/phri_sim.md``.
 from __future__ import annotations
 
 import sys
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -40,7 +39,6 @@ from std_msgs.msg import Float64MultiArray, Header
 from phri_common import paper
 from phri_common.params import ParamSpec, ParamValue
 from phri_common.planar import quaternion_from_yaw
-from phri_common.records import TaxelArray
 from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
@@ -239,8 +237,6 @@ class SimBridgeNode(Node):
             self.skin_link = SkinLink(self.sim.skins.sensors)
             self.skin_link.tare(self._skin_every * self.sim.dt)
         self._readings: dict[str, np.ndarray] = {}
-        self.taxel_sink: Callable[[str, TaxelArray], None] | None = None
-        """Receives every published taxel array directly (see :meth:`_publish_readings`)."""
         self._idle_every = int(v["skin_idle_decimation"])
         self._idle_count = dict.fromkeys(self.sim.patches, 0)
         self._was_touched = dict.fromkeys(self.sim.patches, True)
@@ -412,23 +408,12 @@ class SimBridgeNode(Node):
 
     def _publish_readings(self) -> None:
         """One taxel array per patch with a reading since the last publication (frame = the
-        patch's link), through the sensor faults; :attr:`published_patches` lists them.
-
-        With a :attr:`taxel_sink` (the lock-step runner: contact estimation's ``on_frame``, as
-        in ``skin_contact_node``) the frame is handed over directly and the topic is published
-        only while someone subscribes (a recorder)."""
+        patch's link), through the sensor faults; :attr:`published_patches` lists them."""
         stamp = self.stamp_ns
-        sink = self.taxel_sink
         self.published_patches = []
         for name, reading in self._readings.items():
             forces = self.faults.taxels(name, reading, self.fault_clock)
-            if sink is not None:
-                layout = self.sim.patches[name].layout
-                sink(name, TaxelArray(layout.positions, layout.normals, forces, None,
-                                      layout.link, stamp))
-            pub = self.skin_pubs[name]
-            if sink is None or pub.get_subscription_count() > 0:
-                pub.publish(self.encoders[name].encode(forces, stamp))
+            self.skin_pubs[name].publish(self.encoders[name].encode(forces, stamp))
             self.published_patches.append(name)
         self._readings = {}
 

@@ -38,7 +38,7 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import rclpy
@@ -57,9 +57,6 @@ from phri_sim.bridge import SimBridgeNode
 from phri_sim.faults import DEFAULT_FAULT_TIME, FAULT_KINDS
 from phri_sim.metrics import MetricsRecorder
 from phri_sim.scenarios import SCENARIOS, Scenario
-
-if TYPE_CHECKING:
-    from contact_estimation.node import ContactEstimationNode
 
 Recorder = Callable[[Context], Node]
 Progress = Callable[[float, float], None]
@@ -155,13 +152,12 @@ def _params(values: dict[str, Any]) -> list[Parameter]:
     return [Parameter(name, value=value) for name, value in values.items()]
 
 
-def _estimation_node(context: Context, scenario: Scenario) -> ContactEstimationNode:
+def _estimation_node(context: Context, scenario: Scenario) -> Node:
     """The contact estimation node with the scenario's parameters, on sim time, no markers."""
     from contact_estimation.node import ContactEstimationNode
 
     return ContactEstimationNode(context=context, parameter_overrides=[
         Parameter("use_sim_time", value=True), Parameter("publish_markers", value=False),
-        Parameter("subscribe_taxels", value=False),
         *_params(scenario.estimation_parameters),
     ])
 
@@ -254,9 +250,6 @@ class ScenarioRun:
             "skin_driver": skin_driver, "fault": fault, "fault_time": float(fault_time),
         }))
         self.estimation = _estimation_node(context, sc)
-        # The bridge hands each taxel array to the estimator directly (as skin_contact_node
-        # composes driver and estimator), and publishes the topic only for subscribers.
-        self.bridge.taxel_sink = self.estimation.on_frame
         self.controller = _controller_node(controller, context, sc)
         self.is_stub = controller == "stub"
         self.probe = Node("phri_sim_runner", context=context)
@@ -347,7 +340,7 @@ class ScenarioRun:
         periods = round(self.duration / self.bridge.period)
         # Let discovery settle and the nodes see the initial state before the first tick.
         self.spin_until(lambda: all(
-            self.estimation.count_subscribers(f"contacts/{link}") > 0 for link in SKIN_LINKS
+            self.bridge.count_subscribers(f"skin/{p}/taxels") > 0 for p in self.bridge.sim.patches
         ) and self.bridge.count_subscribers("/clock") > 0, "discovery")
         start = time.perf_counter()
         cpu_start = time.process_time()

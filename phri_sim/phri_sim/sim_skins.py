@@ -59,11 +59,17 @@ class LinkGroundTruth:
 
 def geom_shape(model: mujoco.MjModel, data: mujoco.MjData, geom: int) -> Shape:
     """A sphere or capsule geom (person geoms are only these) as a world-frame shape [m]."""
-    pos = data.geom_xpos[geom].copy()
-    radius = float(model.geom_size[geom][0])
-    if model.geom_type[geom] == mujoco.mjtGeom.mjGEOM_SPHERE:
-        return SphereShape(pos, radius)
-    axis = data.geom_xmat[geom].reshape(3, 3)[:, 2] * float(model.geom_size[geom][1])
+    size = model.geom_size[geom]
+    half = 0.0 if model.geom_type[geom] == mujoco.mjtGeom.mjGEOM_SPHERE else float(size[1])
+    return _shape(data, geom, float(size[0]), half)
+
+
+def _shape(data: mujoco.MjData, geom: int, radius: float, half_length: float) -> Shape:
+    """The world-frame shape of a sphere (``half_length`` 0) or capsule geom [m]."""
+    pos = data.geom_xpos[geom]
+    if half_length == 0.0:
+        return SphereShape(pos.copy(), radius)
+    axis = data.geom_xmat[geom][2::3] * half_length  # the geom's z axis (column 2)
     return CapsuleShape(pos - axis, pos + axis, radius)
 
 
@@ -97,6 +103,12 @@ class SimSkins:
         self.skin_links = tuple(dict.fromkeys(p.link for p in patches))
         self._body_link = {model.body(link).id: link for link in self.skin_links}
         self._person_geoms = frozenset(person_geoms)
+        self._geom_size = {  # person geom → (radius, capsule half length or 0 for a sphere)
+            g: (float(model.geom_size[g][0]),
+                0.0 if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_SPHERE
+                else float(model.geom_size[g][1]))
+            for g in self._person_geoms
+        }
         self._robot = robot
         self._truth: dict[str, LinkGroundTruth] | None = None
         self._touch_list: list[tuple[int, str, float, FloatArray]] = []
@@ -186,7 +198,7 @@ class SimSkins:
             contacts = self._contacts.get(link, [])
             if contacts:
                 rot, pos = self._robot.link_pose(link)
-                forces = patch.forces(rot, pos, [(geom_shape(self.model, self.data, g), fn)
+                forces = patch.forces(rot, pos, [(_shape(self.data, g, *self._geom_size[g]), fn)
                                                  for g, fn in contacts],
                                       keys=[g for g, _ in contacts])
             else:
