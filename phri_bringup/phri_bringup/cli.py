@@ -62,6 +62,13 @@ def _parser() -> argparse.ArgumentParser:
     sim.add_argument("--fault", choices=FAULT_CHOICES, default=None, help=FAULT_HELP)
     sim.add_argument("--fault-time", type=float, default=5.0, metavar="T",
                      help="sim time [s] the fault starts (default 5)")
+    sim.add_argument("--fidelity", choices=("fast", "paper"), default="fast",
+                     help="fast: 5 ms physics, skin sampled at 100 Hz (default); paper: the "
+                          "paper's 2 ms physics and 500 Hz skin (docs/phri_sim.md)")
+    sim.add_argument("--skin-driver", action="store_true",
+                     help="the real skin driver in the loop: the skin goes out as serial "
+                          "protocol frames of raw counts through skin_driver's calibration, "
+                          "tare and moving average")
     sim.add_argument("--params", default=None,
                      help="parameter file instead of config/<scenario>.yaml")
     sim.add_argument("--record", default=None, metavar="DIR",
@@ -186,7 +193,8 @@ def cmd_sim(args: argparse.Namespace) -> int:
                              short=args.short, seed=args.seed, pace=pace,
                              progress=_progress_printer(start), stop=stop,
                              fault=args.fault or "", fault_time=args.fault_time,
-                             inspect=runs.append)
+                             inspect=runs.append, fidelity=args.fidelity,
+                             skin_driver=args.skin_driver)
     except Exception as err:
         _log(f"run failed: {type(err).__name__}: {err}")
         return 2 if isinstance(err, ValueError) else 1
