@@ -14,8 +14,9 @@ target normal force: a cosine rise over :data:`RISE_TIME` after the gap has clos
 release over :data:`RELEASE_TIME` from ``t_off``. The target velocity (for the damper) is the
 finite difference of successive targets, so a hand on a moving link keeps its force (the damper
 would otherwise brake it). After the release the hand lifts :data:`LIFT` off the surface *in the
-world* (it lets go: the link coasts away from it) and then travels to its next touch along a
-minimum-jerk path.
+world* (it lets go: the link coasts away from it), withdraws to its rest point when it has the
+time (a link with stiffness K > 0 springs back towards where the hand was), and travels to its
+next touch along a minimum-jerk path.
 
 A :class:`Touch` is either fixed on the skin (axial coordinate s and angle φ on the patch) or
 slides: its tangential position is then scripted in the world along the link axis of the start
@@ -222,7 +223,18 @@ class ForceHand:
                 return np.asarray(start + normal * LIFT * minimum_jerk(
                     (t - touch.t_lift) / LIFT_TIME))
             here = np.asarray(start + normal * LIFT)
+            if self._retreats(k):  # withdraw to rest: the link may spring back (K > 0)
+                x = minimum_jerk((t - touch.t_end) / HAND_TRAVEL)
+                here = np.asarray(here + (self.rest - here) * x)
         return here
+
+    def _retreats(self, k: int) -> bool:
+        """After touch ``k`` the hand withdraws to its rest point when it has the time to get
+        there before it must leave for its next touch."""
+        if k + 1 == len(self.touches):
+            return True
+        later = self.touches[k + 1]
+        return later.t_on - ARRIVE - HAND_TRAVEL >= self.touches[k].t_end + HAND_TRAVEL
 
     def __call__(self, t: float) -> PartTarget:
         """Target position and velocity (finite difference of successive calls) at ``t``."""

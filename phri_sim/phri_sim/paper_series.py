@@ -25,10 +25,11 @@ from phri_description.description import SKIN_LINKS
 FloatArray = NDArray[np.float64]
 
 LINK_FIELDS = ("true_force", "true_centre", "force", "torque", "centre", "in_contact",
-               "region_min", "region_max", "psi", "phase", "track_force")
+               "region_min", "region_max", "psi", "phase", "track_force", "track_force_link")
 """Per-link series (N × k arrays; vectors in the link frame except the world-frame track
 force): true normal force [N] and centre [m], estimated ‖f_η‖ [N], τ_η [N·m], p_η [m], in contact
-(0/1), Ω_i corners [m], ψ [-], phase (Fig. 5, 0–3), k_η ⁰μ_η [N]."""
+(0/1), Ω_i corners [m], ψ [-], phase (Fig. 5, 0–3), k_η ⁰μ_η [N] (world) and the same in the
+link frame [N]."""
 
 
 @dataclass
@@ -80,8 +81,9 @@ class _Collector:
             row["region_max"].append(np.array(est.region_max) if touched else nan3)
             row["psi"].append(task.psi if task is not None else 0.0)
             row["phase"].append(float(task.phase) if task is not None else 0.0)
-            row["track_force"].append(np.array(task.track_force) if task is not None
-                                      else np.zeros(3))
+            mu = np.array(task.track_force) if task is not None else np.zeros(3)
+            row["track_force"].append(mu)
+            row["track_force_link"].append(sim.link_pose(link)[0].T @ mu)
         self.cmd.append(np.array(command, dtype=float))
         self.base.append(np.array(sim.base_twist()))
         self.arm.append(np.array(sim.qd[3:]))
@@ -96,11 +98,11 @@ class _Collector:
 @contextlib.contextmanager
 def parameter_set(scenario: str, name: str) -> Iterator[dict[str, Any]]:
     """Run ``scenario`` with its parameter set ``name`` (:data:`~phri_sim.scenarios.
-    PARAMETER_SETS`; ``paper`` = the scenario's own) while the context is open."""
+    PARAMETER_SETS`; ``phri`` = the scenario's own) while the context is open."""
     from phri_sim import scenarios
 
     original = scenarios.SCENARIOS[scenario]
-    sets = scenarios.PARAMETER_SETS.get(scenario, {"paper": original.controller_parameters})
+    sets = scenarios.PARAMETER_SETS.get(scenario, {"phri": original.controller_parameters})
     if name not in sets:
         raise ValueError(f"parameter set {name!r} refused for scenario {scenario!r}: allowed "
                          f"{sorted(sets)}")
@@ -113,7 +115,7 @@ def parameter_set(scenario: str, name: str) -> Iterator[dict[str, Any]]:
 
 
 def record_scenario(name: str, *, context: Any, duration: float | None = None, seed: int = 0,
-                    parameters: str = "paper") -> FigureSeries:
+                    parameters: str = "phri") -> FigureSeries:
     """Run scenario ``name`` (parameter set ``parameters``) and return its series."""
     from phri_sim.runner import ScenarioRun
 

@@ -15,7 +15,8 @@ Scenarios (``SCENARIOS``):
   then two hands press the same link on opposite sides at both ends (a torque about the centre).
   Λ = 0.5 I, D = 40 I, K = 0; torque limit τ(2) ≤ 1.2 (contact estimation).
 * ``sliding`` (Fig. 7): a hand presses the middle of the left forearm mostly along the link's
-  normal and slides forward and back along the link. Λ = 0.5 I, D = diag(40, 40, 500, 40, 40, 40),
+  normal, then slides forward, holds, slides backward, holds (the robot following brings the
+  contact back toward Ω_d). Λ = 0.5 I, D = diag(40, 40, 500, 40, 40, 40),
   K = 0; desired-region margin 0.01 m.
 * ``whole_body`` (Fig. 8): periodic touches on the three skin links in turn.
   Λ = 0.5 I, D = 60 I, K = 40 I.
@@ -48,7 +49,7 @@ from phri_common import paper
 from phri_description.description import SKIN_LINKS, robot_description
 from phri_sim.hand import ForceHand, Touch, make_touch
 from phri_sim.person import TORSO, WAIST_RADIUS, PartTarget
-from phri_sim.profiles import minimum_jerk, minimum_jerk_rate, smoothstep
+from phri_sim.profiles import minimum_jerk, minimum_jerk_rate
 from phri_sim.sim import Simulation
 
 FloatArray = NDArray[np.float64]
@@ -214,30 +215,37 @@ def centring_script(sim: Simulation) -> Script:
 
 SLIDE_FORCE = 12.0
 """Target normal force of the sliding hand [N]."""
-SLIDE_AMPLITUDE = 0.05
-"""Amplitude of the slide along the link (world) [m]."""
-SLIDE_PERIOD = 6.0
-"""Period of the slide [s]."""
-SLIDE_START = 2.0
-"""The slide starts (the hand presses from 0.5 s, still, so Ω_d is locked first) [s]."""
+SLIDE_AMPLITUDE = 0.03
+"""How far the hand slides forward / backward along the link (world) [m]: the contact region
+(≈ 4 cm long under a 12 N press) then sticks out 2 cm past Ω_d (margin 1 cm)."""
+SLIDE_MOVES: tuple[tuple[float, float, float], ...] = (
+    (2.0, 1.0, 1.0), (6.0, 1.5, -1.0), (10.5, 1.5, 1.0))
+"""The slides: (start [s], duration [s], end position in units of :data:`SLIDE_AMPLITUDE`);
+the hand holds still between them (minimum-jerk moves), so whether the contact returns into
+Ω_d is up to the robot following it (Fig. 7: "under the robot's movement, the contact naturally
+slides back to the initial position")."""
 SLIDE_RELEASE = 14.0
 """The hand lets go at this time [s] (2 s before the end of the full run)."""
 
 
 def slide_offset(t: float) -> float:
-    """The sliding hand's tangential offset along the link (world) at ``t`` [m]: a sinusoid of
-    :data:`SLIDE_PERIOD` from :data:`SLIDE_START`, its amplitude ramped in over the first
-    period."""
-    slide_t = max(t - SLIDE_START, 0.0)
-    env = smoothstep(slide_t / SLIDE_PERIOD)
-    return SLIDE_AMPLITUDE * env * math.sin(2.0 * math.pi * slide_t / SLIDE_PERIOD)
+    """The sliding hand's tangential offset along the link (world frame) at ``t`` [m]:
+    :data:`SLIDE_MOVES`, each a minimum-jerk move, still in between."""
+    position = 0.0
+    for start, duration, end in SLIDE_MOVES:
+        if t <= start:
+            break
+        target = end * SLIDE_AMPLITUDE
+        position += (target - position) * minimum_jerk((t - start) / duration)
+    return position
 
 
 def sliding_script(sim: Simulation) -> Script:
     """Press the middle of the left forearm from above (from 0.5 s, :data:`SLIDE_FORCE` held by
-    :class:`~phri_sim.hand.ForceHand`), slide ± 5 cm along the link (:func:`slide_offset`,
-    scripted in the world, so the robot following the hand shrinks the slide on the skin), then
-    let go at :data:`SLIDE_RELEASE`."""
+    :class:`~phri_sim.hand.ForceHand`; still until 2 s, so Ω_d is locked on a still hand), slide
+    forward, backward and forward along the link (:func:`slide_offset`, scripted in the world, so
+    the robot following the hand brings the contact back on the skin), then let go at
+    :data:`SLIDE_RELEASE`."""
     touch = make_touch(sim, "left_forearm", 0.18, UP, 0.5, SLIDE_RELEASE, SLIDE_FORCE,
                        slide=slide_offset)
     return _hands_script(sim, {"person_left_hand": [touch]})
@@ -416,12 +424,6 @@ SLIDING_PARAMS = {
     **REGION_SETTINGS,
     **_admittance(paper.TRACKING),
 }
-SLIDING_FOLLOW_PARAMS = {
-    **SLIDING_PARAMS,
-    "b": 400.0,
-}
-"""A documented deviation for Fig. 7 (docs/paper_vs_phri.md): with the paper's b = 4 a slide's
-track force moves the robot too little to bring the contact back into Ω_d."""
 WHOLE_BODY_PARAMS = {**TABLE_II, **REGION_SETTINGS, **_admittance(paper.WHOLE_BODY)}
 WALTZ_PARAMS = {
     **TABLE_II,
@@ -450,7 +452,12 @@ SCENARIOS: dict[str, Scenario] = {
     )
 }
 
+LITERAL_REGION = {"region_window": 0.0, "region_hysteresis": 0.0}
+"""The paper's literal Ω_d: locked on the first frame of a touch, (10)–(11) without hysteresis."""
 PARAMETER_SETS: dict[str, dict[str, dict[str, Any]]] = {
-    "sliding": {"paper": SLIDING_PARAMS, "follow": SLIDING_FOLLOW_PARAMS},
+    name: {"phri": params, "literal": {**params, **LITERAL_REGION}}
+    for name, params in (("centring", CENTRING_PARAMS), ("sliding", SLIDING_PARAMS),
+                         ("whole_body", WHOLE_BODY_PARAMS))
 }
-"""Selectable controller parameter sets per scenario (``paper`` = the scenario's own)."""
+"""Selectable controller parameter sets per scenario: ``phri`` (the scenario's own: the paper's
+values with the documented Ω_d deviations) and ``literal`` (the paper's values only)."""
