@@ -14,9 +14,10 @@ target normal force: a cosine rise over :data:`RISE_TIME` after the gap has clos
 release over :data:`RELEASE_TIME` from ``t_off``. The target velocity (for the damper) is the
 finite difference of successive targets, so a hand on a moving link keeps its force (the damper
 would otherwise brake it). After the release the hand lifts :data:`LIFT` off the surface *in the
-world* (it lets go: the link coasts away from it), withdraws to its rest point when it has the
-time (a link with stiffness K > 0 springs back towards where the hand was), and travels to its
-next touch along a minimum-jerk path.
+world* (it lets go: the link coasts away from it), withdraws :data:`RETREAT` further when it has
+the time (a link with stiffness K > 0 springs back towards where the hand was; along the normal,
+so the hand does not sweep across the arm), and travels to its next touch along a minimum-jerk
+path.
 
 A :class:`Touch` is either fixed on the skin (axial coordinate s and angle φ on the patch) or
 slides: its tangential position is then scripted in the world along the link axis of the start
@@ -57,6 +58,9 @@ LIFT = 0.05
 """How far the hand lifts off (world frame, along the normal at release) [m]."""
 LIFT_TIME = 0.4
 """Duration of the lift [s]."""
+RETREAT = 0.15
+"""After lifting off, a hand with time to spare withdraws this much further along the normal
+(world) [m]: a link with stiffness K > 0 springs back to where it was pressed from."""
 HAND_TRAVEL = 1.0
 """Time a hand takes to travel to a touch [s]; it arrives :data:`ARRIVE` before ``t_on``."""
 ARRIVE = 0.25
@@ -196,9 +200,20 @@ class ForceHand:
         depth = HAND_RADIUS + gap(touch, t) - normal_force(touch, t) / HAND_STIFFNESS
         return np.asarray(point + normal * depth)
 
-    def _approach(self, touch: Touch, t: float) -> FloatArray:
+    def _travel(self, touch: Touch, here: FloatArray, t: float, t_go: float) -> FloatArray:
+        """On the way from ``here`` to the touch's approach point: first (70 % of the travel) to
+        a point :data:`RETREAT` further out along the normal, rising to its height in the first
+        half (a hand goes over an arm, not through it), then in along the normal."""
         point, normal, _ = touch_point(self.sim, touch, t)
-        return np.asarray(point + normal * (HAND_RADIUS + GAP))
+        approach = point + normal * (HAND_RADIUS + GAP)
+        far = approach + normal * RETREAT
+        first = 0.7 * HAND_TRAVEL
+        if t < t_go + first:
+            x = (t - t_go) / first
+            shape = np.array([minimum_jerk(x), minimum_jerk(x), minimum_jerk(min(2.0 * x, 1.0))])
+            return np.asarray(here + (far - here) * shape)
+        x = (t - t_go - first) / (HAND_TRAVEL - first)
+        return np.asarray(far + (approach - far) * minimum_jerk(x))
 
     def position(self, t: float) -> FloatArray:
         """The hand's target position at time ``t`` [m] (world)."""
@@ -211,8 +226,7 @@ class ForceHand:
             if t < t_go:
                 return here
             if t < t_arrive:
-                x = minimum_jerk((t - t_go) / HAND_TRAVEL)
-                return np.asarray(here + (self._approach(touch, t) - here) * x)
+                return self._travel(touch, here, t, t_go)
             if t < touch.t_lift:
                 return self._pressing(touch, t)
             if k not in self._released:  # let go: freeze where the hand is, in the world
@@ -223,14 +237,14 @@ class ForceHand:
                 return np.asarray(start + normal * LIFT * minimum_jerk(
                     (t - touch.t_lift) / LIFT_TIME))
             here = np.asarray(start + normal * LIFT)
-            if self._retreats(k):  # withdraw to rest: the link may spring back (K > 0)
+            if self._retreats(k):  # withdraw: the link may spring back (K > 0)
                 x = minimum_jerk((t - touch.t_end) / HAND_TRAVEL)
-                here = np.asarray(here + (self.rest - here) * x)
+                here = np.asarray(here + normal * RETREAT * x)
         return here
 
     def _retreats(self, k: int) -> bool:
-        """After touch ``k`` the hand withdraws to its rest point when it has the time to get
-        there before it must leave for its next touch."""
+        """After touch ``k`` the hand withdraws :data:`RETREAT` further along the normal when
+        it has the time before it must leave for its next touch."""
         if k + 1 == len(self.touches):
             return True
         later = self.touches[k + 1]

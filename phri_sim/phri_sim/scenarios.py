@@ -189,10 +189,11 @@ CENTRING_EVEN = (1.0, 3.0)
 above: (t_on, t_off) [s]; the force is gone at t_off + 0.2 s."""
 CENTRING_TWO_SIDED = (6.0, 8.0)
 """Scenario ②: two hands press the right forearm on opposite sides at both ends: (t_on, t_off)."""
-CENTRING_S = (0.18, 0.25, 0.11)
-"""Axial positions on the patch [m]: the even press, the top press near the elbow end, the
-bottom press near the wrist end (7 cm either side of the middle: 15 N × 0.14 m = 2.1 N·m of
-torque about the contact centre, above the 1.2 N·m clamp)."""
+CENTRING_S = (0.18, 0.235, 0.125)
+"""Axial positions on the patch [m]: the even press, the top press towards the elbow end, the
+bottom press towards the wrist end (5.5 cm either side of the middle: 15 N × 0.11 m = 1.65 N·m
+of torque about the contact centre, above the 1.2 N·m clamp; nearer the elbow the top hand
+would also press the upper arm)."""
 
 
 def centring_script(sim: Simulation) -> Script:
