@@ -309,10 +309,6 @@ def cmd_layouts(args: argparse.Namespace) -> int:
     return 0
 
 
-if __name__ == "__main__":
-    main()
-
-
 def cmd_paper_report(args: argparse.Namespace) -> int:
     """``phri paper-report``: Figs 6–8 pages and the paper-vs-phri page, in an isolated ROS
     domain (an in-process run must not hear other ROS processes on the machine)."""
@@ -340,3 +336,8 @@ def cmd_paper_report(args: argparse.Namespace) -> int:
     _log(f"{verdicts.count('yes')} reproduced, {verdicts.count('partly')} partly, "
          f"{verdicts.count('no')} not, {verdicts.count('info')} informational")
     return 0
+
+
+if __name__ == "__main__":
+    main()
+

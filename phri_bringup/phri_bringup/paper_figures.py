@@ -169,7 +169,8 @@ def figure_8(s: FigureSeries, out: Path) -> Path:
     _joints(ax.flat[5], s, "right", "(f) Right arm joint velocity")
     _joints(ax.flat[6], s, "left", "(g) Left arm joint velocity")
     ax.flat[7].axis("off")
-    for a in ax[-1]:
+    ax.flat[5].tick_params(labelbottom=True)
+    for a in (ax.flat[5], ax.flat[6]):
         a.set_xlabel("time [s]")
     return _save(fig, out / "fig8_wholebody.png")
 

@@ -102,8 +102,12 @@ def test_all_six_whole_body_touches_land(runs: Runs) -> None:
 
 @pytest.mark.ros
 def test_the_sliding_contact_returns_inside_the_desired_region(runs: Runs) -> None:
-    returns = slide_returns(runs["sliding"])
+    s = runs["sliding"]
+    returns = slide_returns(s)
     assert len(returns) == len(SLIDE_MOVES)
+    mu = np.linalg.norm(s.links[SLIDING_LINK]["track_force"], axis=1)
+    for start, duration, _ in SLIDE_MOVES:  # each slide leaves Ω_d: a track force of > 1 N
+        assert mu[_in(s, start, start + duration + 1.0)].max() > 1.0
     assert all(math.isfinite(back) and back < 3.5 for back, _ in returns)
     assert min(share for _, share in returns) > 0.5
 
