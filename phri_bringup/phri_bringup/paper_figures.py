@@ -52,7 +52,7 @@ def _save(fig: Any, path: Path) -> Path:
 
 def _force(ax: Any, s: FigureSeries, link: str, title: str) -> None:
     ax.plot(s.t, s.links[link]["force"], label="estimated ‖f_η‖ (9a)")
-    ax.plot(s.t, s.links[link]["true_force"], "--", label="true normal force (simulator)")
+    ax.plot(s.t, s.links[link]["true_force"], "--", label="true (simulator)")
     ax.set_title(title, fontsize=9)
     ax.set_ylabel("[N]")
     ax.legend(fontsize=7, loc="upper right")
@@ -173,6 +173,60 @@ def figure_8(s: FigureSeries, out: Path) -> Path:
     for a in (ax.flat[5], ax.flat[6]):
         a.set_xlabel("time [s]")
     return _save(fig, out / "fig8_wholebody.png")
+
+
+PAGES = {"centring": figure_6, "sliding": figure_7, "whole_body": figure_8}
+"""The paper's figure of each basic scenario."""
+
+
+def figure_page(scenario: str, s: FigureSeries, out: Path) -> Path:
+    """The paper's figure page of ``scenario`` (:data:`PAGES`) into ``out``."""
+    return PAGES[scenario](s, out)
+
+
+def _at(series: Any, t: np.ndarray, width: int, fill: float = 0.0) -> np.ndarray:
+    """``series`` (times, values) sampled at ``t`` by the latest sample at or before each time
+    (``fill`` before the first)."""
+    out = np.full((len(t), width), fill)
+    if len(series.t):
+        k = np.searchsorted(series.t, t + 1e-9, side="right") - 1
+        ok = k >= 0
+        out[ok] = series.v[k[ok]]
+    return out
+
+
+def series_from_run(data: Any, scenario: str) -> FigureSeries:
+    """A recording read by :func:`phri_bringup.plots.read_run` as a
+    :class:`~phri_sim.paper_series.FigureSeries` on the controller's state times (the arm
+    commands, not recorded, are zero; the true force is the norm of the true total force)."""
+    links = list(data.psi)
+    base = next((data.psi[k] for k in links if len(data.psi[k].t)), None)
+    t = base.t if base is not None else np.zeros(0)
+    nan = float("nan")
+    out: dict[str, dict[str, np.ndarray]] = {}
+    for link in links:
+        touched = _at(data.in_contact[link], t, 1)[:, 0] > 0
+        true_force = _at(data.true_force[link], t, 3)
+        true_centre = _at(data.true_centre[link], t, 3, nan)
+        force = np.linalg.norm(_at(data.force[link], t, 3), axis=1)
+        region = _at(data.region[link], t, 6, nan)
+        out[link] = {
+            "true_force": np.linalg.norm(true_force, axis=1),
+            "true_centre": np.where((np.linalg.norm(true_force, axis=1) > 0)[:, None],
+                                    true_centre, nan),
+            "force": np.where(touched, force, 0.0),
+            "torque": np.where(touched[:, None], _at(data.torque[link], t, 3), 0.0),
+            "centre": np.where(touched[:, None], _at(data.centre[link], t, 3, nan), nan),
+            "in_contact": touched.astype(float),
+            "region_min": np.where(touched[:, None], region[:, :3], nan),
+            "region_max": np.where(touched[:, None], region[:, 3:], nan),
+            "psi": _at(data.psi[link], t, 1)[:, 0],
+            "track_force": _at(data.track_force[link], t, 3),
+        }
+    command = np.zeros((len(t), 15))
+    command[:, :3] = _at(data.cmd_vel, t, 3)
+    return FigureSeries(scenario, "recording", t, out, command, _at(data.odom, t, 6)[:, 3:],
+                        _at(data.joint_velocity, t, 12))
 
 
 Recorder = Callable[..., FigureSeries]
