@@ -212,7 +212,8 @@ def _save(fig: Any, path: Path) -> Path:
 def make_plots(recording: str | Path, out_dir: str | Path, scenario: str | None = None
                ) -> tuple[list[Path], dict[str, Any]]:
     """Draw every panel of a recording into ``out_dir``; return the files and key numbers.
-    ``scenario`` ('waltz' adds the waltz panels; centring, sliding, whole_body the paper's page) defaults to the one the recording shows (a
+    ``scenario`` ('waltz' adds the waltz panels; centring, sliding, whole_body the paper's
+    page) defaults to the one the recording shows (a
     recording whose left forearm is pushed for most of the run by the torso is a waltz)."""
     data = read_run(recording)
     out = Path(out_dir)
