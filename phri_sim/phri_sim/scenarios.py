@@ -27,8 +27,11 @@ Scenarios (``SCENARIOS``):
   outward), left-forearm priority locked at 1, desired force 10 N to the right (base frame).
   Λ = 0.1 I, D = 200 I, K = 0.
 
-Hands never jump between presses (:func:`hand_schedule`); the sliding hand keeps its press depth
-on the link's current surface.
+The hands of centring, sliding and whole_body are :class:`~phri_sim.hand.ForceHand`: they press
+with a target normal force on the link's current surface, let go for real, never jump, and every
+touch must land on skin (:class:`~phri_sim.hand.TouchOffSkinError` otherwise). Centring, sliding
+and whole_body also set the controller's documented Ω_d deviations (:data:`REGION_SETTINGS`;
+``PARAMETER_SETS[name]["literal"]`` without them).
 
 Table II values (q̇ ∈ [−0.15, 0.15], k_η = 200, b = 4, K_p = 5, ψ_thr = 1e-4, ε = 0.1, h = 0.15,
 100 Hz) are the controller's defaults and are repeated in every parameter set for clarity. Every
