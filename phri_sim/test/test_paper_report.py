@@ -141,3 +141,17 @@ def test_the_docs_page_is_what_a_fresh_run_measures(runs: Runs) -> None:
             assert documented == pytest.approx(value, rel=0.05, abs=1e-3), key
     # Every verdict the paper's figures claim is reproduced, except the torque-only motion.
     assert {c.key for c in checks if c.verdict not in ("yes", "info")} == {"6e-two-sided"}
+
+
+@pytest.mark.ros
+def test_same_seed_same_series(runs: Runs) -> None:
+    """Deterministic (item 6): the same scenario and seed give bit-identical series."""
+    with ros_context_scope() as context:
+        again = record_scenario("centring", context=context, seed=SEED)
+    first = runs["centring"]
+    np.testing.assert_array_equal(again.t, first.t)
+    for link, fields in first.links.items():
+        for name, values in fields.items():
+            np.testing.assert_array_equal(again.links[link][name], values, err_msg=name)
+    np.testing.assert_array_equal(again.command, first.command)
+    np.testing.assert_array_equal(again.arm_velocity, first.arm_velocity)
