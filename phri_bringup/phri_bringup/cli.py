@@ -12,6 +12,7 @@
     phri params --check | --write                 # parameter files vs the paper's values
     phri graph sim|real                           # the node graph the launch files start
     phri layouts DIR                              # nominal skin layout files for real.launch.py
+    phri paper-report --page docs/paper_vs_phri.md   # Figs 6–8 panel by panel + paper vs phri
 
 Exit codes: 0 done, 1 run failed, 2 bad arguments or parameters, 130 stopped by Ctrl-C/SIGTERM
 (the robot was sent zero velocity and the recording was closed either way).
@@ -111,6 +112,14 @@ def _parser() -> argparse.ArgumentParser:
     graph.add_argument("which", choices=("sim", "real"), nargs="?", default="sim")
     graph.add_argument("--scenario", default="waltz")
 
+    report = sub.add_parser("paper-report", help="run centring, sliding and whole_body; draw "
+                            "Figs 6–8 panel by panel; write the paper-vs-phri page")
+    report.add_argument("--out", default="runs/paper", help="directory for the figure pages "
+                        "(default runs/paper)")
+    report.add_argument("--seed", type=int, default=0, help="skin noise seed (default 0)")
+    report.add_argument("--page", default=None, help="markdown page to write (default "
+                        "OUT/paper_vs_phri.md; the repository's is docs/paper_vs_phri.md)")
+
     layouts = sub.add_parser("layouts", help="write nominal skin layout files (real robot)")
     layouts.add_argument("directory")
     return parser
@@ -138,7 +147,8 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     handler = {"sim": cmd_sim, "plot": cmd_plot, "video": cmd_video, "params": cmd_params,
                "graph": cmd_graph, "layouts": cmd_layouts,
-               "followability": cmd_followability}[args.command]
+                "followability": cmd_followability,
+               "paper-report": cmd_paper_report}[args.command]
     try:
         code = handler(args)
     except (ValueError, FileNotFoundError) as err:
@@ -387,5 +397,35 @@ def cmd_layouts(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_paper_report(args: argparse.Namespace) -> int:
+    """``phri paper-report``: Figs 6–8 pages and the paper-vs-phri page, in an isolated ROS
+    domain (an in-process run must not hear other ROS processes on the machine)."""
+    import rclpy
+    from rclpy.context import Context
+
+    from phri_bringup.paper_figures import paper_report
+
+    out = Path(args.out)
+    page = Path(args.page) if args.page else out / "paper_vs_phri.md"
+    domain = 1 + os.getpid() % 100
+    os.environ["ROS_DOMAIN_ID"] = str(domain)
+    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    context = Context()
+    rclpy.init(context=context, domain_id=domain)
+    try:
+        files, text, checks = paper_report(out, seed=args.seed, context=context)
+    finally:
+        context.try_shutdown()
+    page.parent.mkdir(parents=True, exist_ok=True)
+    page.write_text(text, encoding="utf-8")
+    for f in [*files, page]:
+        print(f)
+    verdicts = [c.verdict for c in checks]
+    _log(f"{verdicts.count('yes')} reproduced, {verdicts.count('partly')} partly, "
+         f"{verdicts.count('no')} not, {verdicts.count('info')} informational")
+    return 0
+
+
 if __name__ == "__main__":
     main()
+
