@@ -147,7 +147,7 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     handler = {"sim": cmd_sim, "plot": cmd_plot, "video": cmd_video, "params": cmd_params,
                "graph": cmd_graph, "layouts": cmd_layouts,
-                "followability": cmd_followability,
+               "followability": cmd_followability,
                "paper-report": cmd_paper_report}[args.command]
     try:
         code = handler(args)
