@@ -158,6 +158,8 @@ class MetricsRecorder:
         self.links: dict[str, _LinkSeries] = {}
         self.base_path: list[FloatArray] = []
         self.torso_path: list[FloatArray] = []
+        self.base_yaw: list[float] = []
+        self.torso_yaw: list[float] = []
         self.violations = 0
         self.violation_kinds: dict[str, int] = {"joint_limit": 0, "dance_band": 0, "velocity": 0}
         self.max_command = 0.0
@@ -230,7 +232,10 @@ class MetricsRecorder:
         self.base_path.append(q[:2].copy())
         torso = next((p.name for p in sim.parts if p.name == "person_torso"), None)
         if torso is not None:
-            self.torso_path.append(sim.part_pose(torso)[0][:2])
+            position, quat = sim.part_pose(torso)
+            self.torso_path.append(position[:2])
+            self.torso_yaw.append(2.0 * math.atan2(float(quat[3]), float(quat[0])))
+            self.base_yaw.append(float(q[2]))
 
     # -- reduction ------------------------------------------------------------------------------
     def _link_summary(self, series: _LinkSeries) -> dict[str, Any]:
@@ -318,7 +323,44 @@ class MetricsRecorder:
                 "torso_travel": float(np.sum(np.linalg.norm(np.diff(p, axis=0), axis=1))),
                 "base_travel": float(np.sum(np.linalg.norm(np.diff(b, axis=0), axis=1))),
             })
+            result.update(relative_drift(base, np.array(self.base_yaw), torso,
+                                         np.array(self.torso_yaw)))
+            result["waist_band_share"] = float(np.mean((force >= WAIST_BAND[0])
+                                                       & (force <= WAIST_BAND[1])))
         return result
+
+
+WAIST_BAND = (2.0, 25.0)
+"""Waist force band of issue 14's bars [N]."""
+
+
+def relative_drift(base_xy: FloatArray, base_yaw: FloatArray, torso_xy: FloatArray,
+                   torso_yaw: FloatArray) -> dict[str, float]:
+    """The partner's pose in the robot base frame against its pose at the start (issue 14):
+    position drift RMS / max [m], heading drift RMS / max [deg], and the accumulated turn of
+    partner and base, clockwise and counter-clockwise [deg]. The torso's position in the base
+    frame is ``R(−θ_b)(p_torso − p_base)``, its heading ``ψ_torso − θ_b`` (unwrapped)."""
+    th = np.unwrap(base_yaw)
+    psi = np.unwrap(torso_yaw)
+    d = torso_xy - base_xy
+    c, s = np.cos(th), np.sin(th)
+    rel = np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]], axis=1)
+    drift = np.linalg.norm(rel - rel[0], axis=1)
+    heading = np.degrees((psi - th) - (psi[0] - th[0]))
+
+    def turns(angle: FloatArray) -> tuple[float, float]:
+        step = np.degrees(np.diff(angle))
+        return float(-step[step < 0].sum()), float(step[step > 0].sum())
+
+    (p_cw, p_ccw), (r_cw, r_ccw) = turns(psi), turns(th)
+    return {
+        "relative_position_rms": float(np.sqrt(np.mean(drift**2))),
+        "relative_position_max": float(drift.max()),
+        "relative_heading_rms": float(np.sqrt(np.mean(heading**2))),
+        "relative_heading_max": float(np.abs(heading).max()),
+        "partner_turn_cw": p_cw, "partner_turn_ccw": p_ccw,
+        "robot_turn_cw": r_cw, "robot_turn_ccw": r_ccw,
+    }
 
 
 def _outside(q: FloatArray, ranges: FloatArray, tolerance: float) -> bool:

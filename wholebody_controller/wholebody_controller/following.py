@@ -33,8 +33,10 @@ restarts from zero::
     ẋ̃_ω ← J_l(x̃_ω) ẋ̃_ω,   x̃_ω ← 0                                                  (F2)
 
 (at the re-base ⁰ω_d = J_l(x̃_ω) ẋ̃_ω of (14) is unchanged; the orientation error K_p e of (19)
-stays ≤ K_p ε_ω). It applies only where the rotational stiffness is zero (with K ≠ 0 the
-reference is a spring's rest and must stay).
+stays ≤ K_p ε_ω). A link that keeps up never pulls the leash, so the deflection is also folded
+whole into the reference, ⁰R_r ← exp([x̃_ω]×) ⁰R_r (⁰R_d unchanged), whenever ‖x̃_ω‖ passes
+:data:`FOLD_ANGLE`, well short of J_l's singularity at 2π. It applies only where the rotational
+stiffness is zero (with K ≠ 0 the reference is a spring's rest and must stay).
 """
 
 from __future__ import annotations
@@ -47,6 +49,10 @@ from wholebody_controller.so3 import Mat9, Vec3, exp, exp_and_left_jacobian, log
 LEASH_ANGLE = 0.05
 """ε_ω of (F2): how far the desired orientation may lead the link [rad] (K_p ε_ω = 0.25 rad/s
 with the paper's K_p = 5, above every turn rate of the waltz)."""
+
+
+FOLD_ANGLE = 0.5 * math.pi
+"""‖x̃_ω‖ above which the deflection is folded whole into the reference (F2) [rad]."""
 
 
 def lead_moment(center: Vec3, region_min: Vec3, region_max: Vec3, force: Vec3) -> Vec3:
@@ -64,11 +70,16 @@ def leash_reference(ref_rot: Mat9, deflection: Vec3, rate: Vec3, rot: Mat9,
                     leash: float = LEASH_ANGLE) -> tuple[Mat9, Vec3] | None:
     """(F2): ``(new ⁰R_r, new ẋ̃_ω [rad/s])`` for a deflection that restarts at 0 when the
     desired orientation exp([x̃_ω]×) ⁰R_r lies more than ``leash`` [rad] from the link's ⁰R_i
-    (``rot``); ``None`` when it lies within."""
+    (``rot``: re-based onto the leash's end) or ‖x̃_ω‖ > :data:`FOLD_ANGLE` (folded whole);
+    ``None`` otherwise."""
     exp_d, jac_l = exp_and_left_jacobian(deflection)
-    ex, ey, ez = log(matmul_transpose(matmul(exp_d, ref_rot), rot))
+    desired = matmul(exp_d, ref_rot)
+    ex, ey, ez = log(matmul_transpose(desired, rot))
     norm = math.sqrt(ex * ex + ey * ey + ez * ez)
     if norm <= leash:
-        return None
+        dx, dy, dz = deflection
+        if dx * dx + dy * dy + dz * dz <= FOLD_ANGLE * FOLD_ANGLE:
+            return None
+        return desired, rotate(jac_l, rate)
     k = leash / norm
     return matmul(exp((k * ex, k * ey, k * ez)), rot), rotate(jac_l, rate)
