@@ -55,8 +55,8 @@ GLOBAL_PARAMS: list[ParamSpec] = [
     ParamSpec("q_dance_range", paper.Q_DANCE_HALF_WIDTH,
               "half width of the q_dance joint ranges", "rad", 0.0, 6.3),
     ParamSpec("lead_moment", False,
-              "follow a turning lead: moment of the contact force about the hold point (F1) "
-              "and a carried reference (F2); false = the paper's task"),
+              "follow a turning lead: moment of the contact force about the contact region's "
+              "middle (F1) and a leashed reference (F2); false = the paper's task"),
     ParamSpec("solver", "daqp", "QP backend: daqp (exact, default) or osqp (warm-started)"),
     ParamSpec("contact_timeout", 0.1, "contact state older than this → zero command", "s",
               1e-3, 10.0),
