@@ -12,9 +12,14 @@ gives the full-length numbers), with margin for other seeds:
 * waltz (30 s: the hold, a closed change — a step away from the forearm and a side step along
   it — and the first bar of a natural turn): the waist contact held ≥ 95 % and the waist force
   in 2–25 N ≥ 95 % (runs: 100 %), no force spike (peak ≤ 25 N), the partner's position in the
-  robot frame within 5 cm RMS, the partner's heading in the robot frame within 20° and the robot
+  robot frame within 5 cm RMS, the partner's heading in the robot frame within 10° and the robot
   turning with the partner (≥ 70 % of the partner's turn); the paper's literal set must fail the
-  heading bar by a factor of two (RUNS_NOTE);
+  heading bar by a factor of two. Runs (seed 1): default set — held 100 %, band 100 %, peak
+  13.3 N, position drift 2.2 cm RMS, heading drift 5.5° max, robot turned 60° of the partner's
+  62°; paper set — heading drift 57° max, robot turned 5°, position drift 5.1 cm RMS. (The old
+  ``path_rms_error``, world displacements of base origin and torso, reads 24 cm for the default
+  set and 8 cm for the paper set: turning with the partner the base orbits the couple's centre, so
+  it no longer measures following and is not asserted);
 * every scenario: zero limit violations (joint limits, q_dance band, speed limit), and every
   body part of the person and every robot link within its ISO/TS 15066 region's limits (peak ≤
   transient, force held 0.5 s ≤ quasi-static; docs/phri_sim.md, "Body-region limits").
@@ -71,9 +76,9 @@ def test_whole_body_touches_and_yields(ros_context: Any) -> None:
     assert m["max_command"] > 0.02
 
 
-WALTZ_HEADING_MAX = 20.0
-"""Bar of the CI waltz on the partner's heading drift in the robot frame [deg] (runs: see the
-module docstring; the paper's literal set: ≥ 50°)."""
+WALTZ_HEADING_MAX = 10.0
+"""Bar of the CI waltz on the partner's heading drift in the robot frame [deg] (issue 14's bar;
+runs: 5.5°; the paper's literal set: 57°)."""
 
 
 @pytest.mark.ros
