@@ -519,6 +519,13 @@ WALTZ_PARAMS = {
 :data:`WALTZ_DANCE_RANGE` and the lead moment (F1) with the carried reference (F2) of
 :mod:`wholebody_controller.following`."""
 
+WALTZ_TEMPO_VELOCITY_LIMIT = 0.5
+"""``velocity_limit`` of the `tempo` waltz [m/s, rad/s]: the mecanum base's 0.5 m/s, the
+tightest of the robot's own limits (base 1.0 rad/s, UR16e joints 2.09–3.14 rad/s); the
+controller has one bound for every axis."""
+WALTZ_TEMPO_PARAMS = {**WALTZ_PARAMS, "velocity_limit": WALTZ_TEMPO_VELOCITY_LIMIT}
+"""The default set at the robot's own speed limit (:data:`WALTZ_TEMPO_VELOCITY_LIMIT`)."""
+
 WALTZ_SHORT = 30.0
 """CI length of the waltz [s]: the hold, the closed change forward and the first natural turn's
 first bar (a turn of 90°, the step away from the forearm, the side step along it)."""
@@ -538,7 +545,7 @@ SCENARIOS: dict[str, Scenario] = {
                  waltz_duration("paper"), WALTZ_SHORT, Q_WALTZ, WALTZ_PARAMS, waltz_script,
                  "waltz", settle=WALTZ_SETTLE),
         Scenario("waltz_tempo", "Fig. 1 at a real slow-waltz tempo (bar 2 s)",
-                 waltz_duration("tempo"), waltz_duration("tempo"), Q_WALTZ, WALTZ_PARAMS,
+                 waltz_duration("tempo"), waltz_duration("tempo"), Q_WALTZ, WALTZ_TEMPO_PARAMS,
                  partial(waltz_script, tempo="tempo"), "waltz", settle=WALTZ_SETTLE),
         Scenario("waltz_paper", "Fig. 1 (paper tempo) with the paper's literal parameter set",
                  waltz_duration("paper"), WALTZ_SHORT, Q_WALTZ, WALTZ_PAPER_PARAMS, waltz_script,
