@@ -71,7 +71,11 @@ def _parser() -> argparse.ArgumentParser:
                           "protocol frames of raw counts through skin_driver's calibration, "
                           "tare and moving average")
     sim.add_argument("--params", default=None,
-                     help="parameter file instead of config/<scenario>.yaml")
+                     help="parameter file instead of config/<scenario>.yaml; 'paper' (waltz): "
+                          "the paper's literal set, config/waltz_paper.yaml")
+    sim.add_argument("--tempo", choices=WALTZ_TEMPOS, default="paper",
+                     help="waltz tempo: paper (within Table II's limits, default) or tempo "
+                          "(a real slow waltz, bar 2 s)")
     sim.add_argument("--record", default=None, metavar="DIR",
                      help="recording directory (default OUT/recording)")
     sim.add_argument("--no-record", action="store_true",
@@ -176,6 +180,11 @@ def cmd_sim(args: argparse.Namespace) -> int:
     from phri_bringup.session import StopFlag, run_session
 
     name = canonical_scenario(args.scenario)
+    try:
+        name, args.params = waltz_variant(name, args.tempo, args.params)
+    except ValueError as err:
+        _log(str(err))
+        return 2
     out = Path(args.out or f"runs/{scenario_file(name)}")
     out.mkdir(parents=True, exist_ok=True)
     record_dir = None if args.no_record else Path(args.record or out / "recording")
@@ -299,6 +308,31 @@ def cmd_followability(args: argparse.Namespace) -> int:
         _log(line)
     _log(f"map: {out / 'followability.json'}, {out / 'followability.png'}")
     return 0
+
+
+WALTZ_TEMPOS = ("paper", "tempo")
+
+
+def waltz_variant(name: str, tempo: str, params: str | None) -> tuple[str, str | None]:
+    """(scenario, parameter file) for ``--tempo`` and ``--params paper``: the tempo picks
+    ``waltz`` or ``waltz_tempo``; ``paper`` is the paper's literal set
+    (``config/waltz_paper.yaml``).
+
+    Raises:
+        ValueError: ``--tempo tempo`` or ``--params paper`` on a scenario that is not a waltz.
+    """
+    from phri_bringup.graph import config_file
+
+    waltz = name.startswith("waltz")
+    if params == "paper":
+        if not waltz:
+            raise ValueError(f"--params paper is the waltz's paper set; scenario is {name!r}")
+        params = str(config_file("waltz_paper"))
+    if tempo != "paper":
+        if not waltz:
+            raise ValueError(f"--tempo {tempo} applies to the waltz only; scenario is {name!r}")
+        name = "waltz_tempo"
+    return name, params
 
 
 def _report_safety(metrics: dict[str, Any]) -> None:

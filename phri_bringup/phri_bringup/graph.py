@@ -35,6 +35,8 @@ SCENARIO_ALIASES: dict[str, str] = {
     "whole_body": "whole_body",
     "whole-body": "whole_body",
     "waltz": "waltz",
+    "waltz_tempo": "waltz_tempo",
+    "waltz_paper": "waltz_paper",
 }
 """Command-line scenario names → phri_sim scenario names."""
 
@@ -43,6 +45,8 @@ SCENARIO_FILES: dict[str, str] = {
     "sliding": "sliding",
     "whole_body": "wholebody",
     "waltz": "waltz",
+    "waltz_tempo": "waltz_tempo",
+    "waltz_paper": "waltz_paper",
 }
 """phri_sim scenario name → parameter file stem in ``config/``."""
 

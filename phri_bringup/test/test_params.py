@@ -33,7 +33,7 @@ def test_paper_values_in_the_files() -> None:
         "centring": ([0.5] * 6, [40.0] * 6, [0.0] * 6),
         "sliding": ([0.5] * 6, [40.0, 40.0, 500.0, 40.0, 40.0, 40.0], [0.0] * 6),
         "wholebody": ([0.5] * 6, [60.0] * 6, [40.0] * 6),
-        "waltz": ([0.1] * 6, [200.0] * 6, [0.0] * 6),
+        "waltz_paper": ([0.1] * 6, [200.0] * 6, [0.0] * 6),
     }
     for stem, (inertia, damping, stiffness) in expected.items():
         ctl = params.load(config_file(stem))[CONTROLLER]
@@ -45,10 +45,27 @@ def test_paper_values_in_the_files() -> None:
             assert ctl[f"{link}.stiffness"] == stiffness
         est = params.load(config_file(stem))[ESTIMATION]
         assert est["torque_limit"][1] == 1.2 and math.isinf(est["torque_limit"][0])
-    waltz = params.load(config_file("waltz"))[CONTROLLER]
+    waltz = params.load(config_file("waltz_paper"))[CONTROLLER]
     assert waltz["q_dance_enabled"] is True and waltz["q_dance_range"] == 0.1
     assert waltz["left_forearm_link.priority_lock"] == 1.0
     assert waltz["left_forearm_link.desired_force"] == [0.0, -10.0, 0.0]
+    assert "lead_moment" not in waltz
+
+
+def test_default_waltz_deviates_from_the_paper_only_where_documented() -> None:
+    """The default waltz set (config/waltz.yaml) differs from the paper's (waltz_paper.yaml) in
+    exactly the keys docs/wholebody_controller.md's "Following a turning partner" lists."""
+    paper = params.load(config_file("waltz_paper"))[CONTROLLER]
+    ours = params.load(config_file("waltz"))[CONTROLLER]
+    changed = {k for k in set(paper) | set(ours) if paper.get(k) != ours.get(k)}
+    links = ("left_upper_arm_link", "left_forearm_link", "right_forearm_link")
+    assert changed == {"k_eta", "q_dance_range", "lead_moment",
+                       *(f"{link}.{g}" for link in links for g in ("inertia", "damping"))}
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "wholebody_controller.md").read_text(
+        encoding="utf-8")
+    section = doc.split("## Following a turning partner", 1)[1].split("\n## ", 1)[0]
+    for key in ("k_eta", "q_dance_range", "lead_moment", "inertia", "damping"):
+        assert f"`{key}`" in section, key
     assert params.load(config_file("sliding"))[CONTROLLER]["region_margin"] == 0.01
 
 

@@ -24,8 +24,13 @@ The damper is set at or above critical damping for the layer's mass, so the laye
 Parts (names are the MuJoCo body names; geoms are ``<part>`` and, for the torso, ``person_waist``
 and ``person_chest``):
 
-* ``person_torso``: the dancer's torso; a capsule waist (what the robot's left forearm holds in
-  the waltz) below a wider chest capsule.
+* ``person_torso``: the dancer's torso. Body frame: x the facing direction, y to the dancer's
+  left, z up (the torso's yaw is the dancer's heading). The waist (what the robot's left forearm
+  holds in the waltz) is a horizontal capsule along y — a stadium cross-section
+  :data:`WAIST_WIDTH` × :data:`WAIST_DEPTH` (0.30 × 0.20 m) whose flat back lies along the
+  forearm, so a turn of the dancer against the forearm shifts the pressure to one end of the
+  back (the lead a round waist cannot give); above it a chest (horizontal capsule, 0.36 × 0.22 m)
+  and a head (sphere).
 * ``person_left_hand``, ``person_right_hand``: spheres that press and slide on the skin.
 """
 
@@ -41,6 +46,7 @@ from numpy.typing import NDArray
 FloatArray = NDArray[np.float64]
 
 PartShape = Literal["sphere", "capsule"]
+Axis = Literal["x", "y", "z"]
 
 
 @dataclass(frozen=True)
@@ -50,10 +56,11 @@ class GeomSpec:
     Attributes:
         name: MuJoCo geom name.
         shape: ``sphere`` (size = (radius,)) or ``capsule`` (size = (radius, half length), along
-            the body z axis).
+            ``axis``).
         size: see ``shape`` [m].
         pos: centre in the body frame [m].
         rgba: display colour.
+        axis: the body axis a capsule lies along.
     """
 
     name: str
@@ -61,6 +68,7 @@ class GeomSpec:
     size: tuple[float, ...]
     pos: tuple[float, float, float] = (0.0, 0.0, 0.0)
     rgba: tuple[float, float, float, float] = (0.85, 0.65, 0.55, 1.0)
+    axis: Axis = "z"
 
 
 @dataclass(frozen=True)
@@ -73,6 +81,11 @@ class SoftTissue:
         stiffness: K_t of each horizontal slide joint [N/m].
         damping: D_t of each slide joint [N·s/m].
         travel: range of each slide joint, ± [m] (how far the tissue can be compressed).
+        yaw_stiffness: K_ψ of a hinge about the part's z axis under the layer [N·m/rad]
+            (``0`` = no hinge): the layer's geoms can twist against the body, as a waist's flesh
+            and clothes let a flat back conform to an arm laid across it.
+        yaw_damping: D_ψ of that hinge [N·m·s/rad].
+        yaw_travel: range of the hinge, ± [rad].
     """
 
     geoms: tuple[str, ...]
@@ -80,6 +93,9 @@ class SoftTissue:
     stiffness: float
     damping: float
     travel: float = 0.03
+    yaw_stiffness: float = 0.0
+    yaw_damping: float = 0.0
+    yaw_travel: float = 0.35
 
 
 @dataclass(frozen=True)
@@ -116,8 +132,15 @@ class BodyPartSpec:
 
 HAND_RADIUS = 0.045
 """Radius of a hand (palm-sized sphere) [m]."""
-WAIST_RADIUS = 0.13
-"""Radius of the waist capsule [m]."""
+WAIST_WIDTH = 0.30
+"""Width of the waist, the dancer's left to right [m]."""
+WAIST_DEPTH = 0.20
+"""Depth of the waist, front to back [m]."""
+WAIST_RADIUS = 0.5 * WAIST_DEPTH
+"""Radius of the waist capsule: half the depth, the distance from the waist's centre plane to
+its back [m]."""
+WAIST_HALF_LENGTH = 0.5 * (WAIST_WIDTH - WAIST_DEPTH)
+"""Half length of the waist capsule's segment: half the flat part of the back [m]."""
 WAIST_HEIGHT = 1.00
 """Height of the waist centre above the floor when the torso stands at its target [m]."""
 WAIST_TISSUE = SoftTissue(
@@ -125,18 +148,32 @@ WAIST_TISSUE = SoftTissue(
     mass=1.0,
     stiffness=2500.0,
     damping=120.0,
+    yaw_stiffness=20.0,
+    yaw_damping=2.0,
 )
 """The waist's soft tissue: 2.5 kN/m (a clothed waist; soft-tissue stiffness of the trunk is of
 the order of 1–5 kN/m), 1 kg of tissue, damping ratio 1.2. The damper stays well below the
 admittance damping D = 200 N·s/m of the waltz, so a force step is not reflected back into the
-robot's one-period-delayed command as an oscillation."""
+robot's one-period-delayed command as an oscillation.
+
+The layer also twists about the vertical, K_ψ = 20 N·m/rad, D_ψ = 2 N·m·s/rad (above critical
+for the layer's ≈ 0.01 kg·m²): a waist's flesh and clothes let the flat back conform to an arm
+laid across it. Measured (the skin's own pressure moment about its footprint's middle, the lead
+of :mod:`wholebody_controller.following`, against the dancer's turn on a held forearm): without
+the twist the lead is there from 1° but fades past 9° (the back rocks onto one end, whose
+footprint is centred on itself), and the waltz lost the contact in the first turn (waist force in
+band 1 %); K_ψ = 3 conforms the first 8° away (no lead below, 10–13° heading lag in the waltz);
+K_ψ = 10 leads from 3° on (first 45 s of the waltz: heading drift 7.9° max, 4.7° RMS), K_ψ = 20
+(the value here) 5.8° max, 3.8° RMS."""
 
 TORSO = BodyPartSpec(
     name="person_torso",
     geoms=(
-        GeomSpec("person_waist", "capsule", (WAIST_RADIUS, 0.10), (0.0, 0.0, 0.0)),
-        GeomSpec("person_chest", "capsule", (0.16, 0.12), (0.0, 0.0, 0.42),
-                 (0.35, 0.45, 0.70, 1.0)),
+        GeomSpec("person_waist", "capsule", (WAIST_RADIUS, WAIST_HALF_LENGTH), (0.0, 0.0, 0.0),
+                 axis="y"),
+        GeomSpec("person_chest", "capsule", (0.11, 0.07), (0.0, 0.0, 0.40),
+                 (0.35, 0.45, 0.70, 1.0), axis="y"),
+        GeomSpec("person_head", "sphere", (0.10,), (0.0, 0.0, 0.72)),
     ),
     mass=30.0,
     stiffness=600.0,

@@ -43,6 +43,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -50,9 +51,10 @@ from numpy.typing import NDArray
 
 from phri_common import paper
 from phri_description.description import SKIN_LINKS, robot_description
+from phri_sim.choreography import waltz_choreography
 from phri_sim.hand import ForceHand, Touch, make_touch
 from phri_sim.person import TORSO, WAIST_RADIUS, PartTarget
-from phri_sim.profiles import minimum_jerk, minimum_jerk_rate
+from phri_sim.profiles import minimum_jerk
 from phri_sim.sim import Simulation
 
 FloatArray = NDArray[np.float64]
@@ -305,14 +307,6 @@ WALTZ_FORCE = paper.WALTZ_DESIRED_FORCE
 """The left forearm's desired force towards the waist (to the right in the base frame) [N]."""
 WALTZ_LINK = robot_description().patch("left_forearm").link
 """The link that leads the waltz on the waist (VI-B: the left forearm)."""
-WALTZ_STEP = 0.10
-"""Length of a box side [m]."""
-WALTZ_STEP_TIME = 5.5
-"""Duration of a moving step [s]; a closing step (feet together, the torso still) takes half.
-With the minimum-jerk profile the torso peaks at 1.875 · 0.10 / 5.5 = 0.034 m/s and
-0.019 m/s² — a slow, deliberate lead. A step away from the robot is followed only through the
-preload: the robot closes in at (10 N − F) / D, so a lead faster than 10 N / 200 N·s/m
-= 0.05 m/s would open the contact; 0.034 m/s leaves the waist force ≈ 3 N at its lowest."""
 WALTZ_INTRO = 2.0
 """Standing still in the hold before the first step [s]."""
 WALTZ_OUTRO = 3.0
@@ -322,50 +316,14 @@ WALTZ_SETTLE = 2.0
 impact [s]."""
 WALTZ_CONTACT_S = 0.18
 """Axial position of the waist contact on the left forearm patch [m] (its middle)."""
-
-
-def waltz_path() -> tuple[list[float], list[FloatArray], list[float]]:
-    """Waypoints of the torso: times [s], planar offsets from the start [m] (world frame), yaw
-    [rad]. Box 1: forward (+x), side (away from the robot's left forearm, −y), close, back, side
-    (+y), close. Box 2: the same turned by −90° about the couple (a quarter turn to the right),
-    the torso turning with it."""
-    a, step = WALTZ_STEP, WALTZ_STEP_TIME
-    box = [np.array([a, 0.0]), np.array([0.0, -a]), None, np.array([-a, 0.0]),
-           np.array([0.0, a]), None]
-    times, points, yaws = [0.0, WALTZ_INTRO], [np.zeros(2), np.zeros(2)], [0.0, 0.0]
-    t, p, yaw = WALTZ_INTRO, np.zeros(2), 0.0
-    for turn in (0.0, -0.5 * math.pi):
-        c, s = math.cos(turn), math.sin(turn)
-        rot = np.array([[c, -s], [s, c]])
-        for move in box:
-            if move is None:
-                t += 0.5 * step
-            else:
-                t += step
-                p = p + rot @ move
-            yaw = turn if move is not None else yaw
-            times.append(t)
-            points.append(p.copy())
-            yaws.append(yaw)
-    return times, points, yaws
-
-
-def _interpolate(times: list[float], values: list[Any], t: float) -> tuple[Any, Any]:
-    """Minimum-jerk piecewise interpolation between waypoints: (value, rate) at ``t``."""
-    if t <= times[0]:
-        return values[0], values[0] * 0.0
-    for i in range(1, len(times)):
-        if t <= times[i]:
-            dt = times[i] - times[i - 1]
-            x = (t - times[i - 1]) / dt
-            delta = values[i] - values[i - 1]
-            return values[i - 1] + delta * minimum_jerk(x), delta * minimum_jerk_rate(x, dt)
-    return values[-1], values[-1] * 0.0
+WALTZ_START_YAW = -0.5 * math.pi
+"""The dancer's heading at the start (world): facing −y, away from the robot's left forearm,
+which lies across the back of the waist (Fig. 1) [rad]."""
 
 
 def waltz_contact(sim: Simulation) -> tuple[FloatArray, FloatArray]:
-    """(waist centre [m], unit vector from the waist into the left forearm) when the waist just
-    touches the inner (−y) side of the left forearm's middle, at the current robot state."""
+    """(waist centre [m], unit vector from the waist into the left forearm) when the waist's back
+    just touches the inner (−y) side of the left forearm's middle, at the current robot state."""
     point, normal, _ = press_geometry(sim, "left_forearm", WALTZ_CONTACT_S,
                                       np.array([0.0, -1.0, 0.0]))
     centre = point + normal * WAIST_RADIUS
@@ -380,34 +338,36 @@ def waltz_start(sim: Simulation) -> FloatArray:
     return np.asarray(centre + inward * (WALTZ_FORCE / TORSO.tissue.stiffness))
 
 
-def waltz_script(sim: Simulation) -> Script:
-    """The torso follows :func:`waltz_path` from :func:`waltz_start`, its spring target
-    :data:`WALTZ_FORCE` / K deeper towards the forearm (the person leans into the hold with the
-    preload); hands stay parked (the robot is led by the waist alone)."""
+def waltz_script(sim: Simulation, tempo: str = "paper") -> Script:
+    """The torso dances :func:`~phri_sim.choreography.waltz_choreography` at ``tempo`` from
+    :func:`waltz_start` (heading :data:`WALTZ_START_YAW`), its spring target
+    :data:`WALTZ_FORCE` / K behind its waist centre, towards its back (the dancer leans into the
+    hold with the preload, the lean turning with the dancer); hands stay parked (the robot is led
+    by the waist alone: hands pressing the skin would add contact tasks of their own)."""
     start = waltz_start(sim)
-    _, inward = waltz_contact(sim)
-    preload = inward * (WALTZ_FORCE / TORSO.stiffness)
-    times, points, yaws = waltz_path()
+    chor = waltz_choreography(tempo, WALTZ_INTRO, WALTZ_OUTRO)
+    c0, s0 = math.cos(WALTZ_START_YAW), math.sin(WALTZ_START_YAW)
+    rot0 = np.array([[c0, -s0], [s0, c0]])
+    lean = WALTZ_FORCE / TORSO.stiffness
     parks = {p.name: PartTarget(np.array(p.parking), np.zeros(3)) for p in sim.parts}
 
     def script(t: float) -> dict[str, PartTarget]:
-        offset, rate = _interpolate(times, points, t)
-        yaw, _ = _interpolate(times, [np.array([y]) for y in yaws], t)
+        p, psi, v, rate = chor.pose(t)
+        yaw = WALTZ_START_YAW + psi
+        cy, sy = math.cos(yaw), math.sin(yaw)
+        xy = start[:2] + rot0 @ p + lean * np.array([-cy, -sy])
+        vxy = rot0 @ v + lean * rate * np.array([sy, -cy])
         out = dict(parks)
-        out["person_torso"] = PartTarget(
-            start + preload + np.array([offset[0], offset[1], 0.0]),
-            np.array([rate[0], rate[1], 0.0]),
-            float(yaw[0]),
-            rest=start,
-        )
+        out["person_torso"] = PartTarget(np.array([xy[0], xy[1], start[2]]),
+                                         np.array([vxy[0], vxy[1], 0.0]), yaw, rest=start)
         return out
 
     return script
 
 
-def waltz_duration() -> float:
-    """Length of the waltz: intro, two boxes and the outro [s]."""
-    return waltz_path()[0][-1] + WALTZ_OUTRO
+def waltz_duration(tempo: str = "paper") -> float:
+    """Length of the waltz at ``tempo``: intro, the routine and the outro [s]."""
+    return waltz_choreography(tempo, WALTZ_INTRO, WALTZ_OUTRO).duration
 
 
 # ---------------------------------------------------------------------------------------------
@@ -429,7 +389,26 @@ SLIDING_PARAMS = {
     **_admittance(paper.TRACKING),
 }
 WHOLE_BODY_PARAMS = {**TABLE_II, **REGION_SETTINGS, **_admittance(paper.WHOLE_BODY)}
-WALTZ_PARAMS = {
+WALTZ_FOLLOW = paper.Admittance(
+    inertia=(0.1, 0.1, 0.1, 0.1, 0.1, 0.01),
+    damping=(100.0, 100.0, 200.0, 200.0, 200.0, 0.2),
+    stiffness=paper.six(0.0),
+)
+"""The default waltz admittance (docs/wholebody_controller.md, "Following a turning partner"):
+the paper's Λ = 0.1, D = 200 except the horizontal translation, D = 100 N·s/m (the preload closes
+at 10 N / D = 0.1 m/s, twice the paper's, so a partner stepping away is followed), and the
+rotation about the vertical in its own units, Λ = 0.01 kg·m², D = 0.2 N·m·s/rad (a lead moment of
+10 N over 2.6 mm turns the link at the paper tempo's 0.13 rad/s)."""
+WALTZ_K_ETA = 1000.0
+"""Track-force gain of the waltz [N/m]: a partner stepping along the forearm at the paper tempo's
+0.055 m/s leaves Ω_d by 0.055 · D / k_η ≈ 5 mm (with Table II's 200: 2.7 cm, and the contact
+slides towards the link's end)."""
+WALTZ_DANCE_RANGE = 0.03
+"""Half width of the q_dance band of the default set [rad]: with the paper's 0.1 the arms absorb
+the first ≈ 17° of a turn at the band's edges and the base, which carries the partner, lags the
+partner's heading by that much (measured: 25° max / 14° RMS heading drift over the first 45 s,
+against 16° / 9° with 0.03)."""
+WALTZ_PAPER_PARAMS = {
     **TABLE_II,
     **_admittance(paper.WALTZ),
     "q_dance_enabled": True,
@@ -438,6 +417,28 @@ WALTZ_PARAMS = {
     f"{WALTZ_LINK}.priority_lock": paper.WALTZ_PRIORITY_LOCK,
     f"{WALTZ_LINK}.desired_force": [0.0, -WALTZ_FORCE, 0.0],
 }
+"""Sec. VI-B's literal set (``phri sim --params paper``)."""
+WALTZ_PARAMS = {
+    **WALTZ_PAPER_PARAMS,
+    **_admittance(WALTZ_FOLLOW),
+    "k_eta": WALTZ_K_ETA,
+    "q_dance_range": WALTZ_DANCE_RANGE,
+    "lead_moment": True,
+}
+"""The default waltz set: the paper's with :data:`WALTZ_FOLLOW`, :data:`WALTZ_K_ETA`,
+:data:`WALTZ_DANCE_RANGE` and the lead moment (F1) with the carried reference (F2) of
+:mod:`wholebody_controller.following`."""
+
+WALTZ_TEMPO_VELOCITY_LIMIT = 0.5
+"""``velocity_limit`` of the `tempo` waltz [m/s, rad/s]: the mecanum base's 0.5 m/s, the
+tightest of the robot's own limits (base 1.0 rad/s, UR16e joints 2.09–3.14 rad/s); the
+controller has one bound for every axis."""
+WALTZ_TEMPO_PARAMS = {**WALTZ_PARAMS, "velocity_limit": WALTZ_TEMPO_VELOCITY_LIMIT}
+"""The default set at the robot's own speed limit (:data:`WALTZ_TEMPO_VELOCITY_LIMIT`)."""
+
+WALTZ_SHORT = 30.0
+"""CI length of the waltz [s]: the hold, the closed change forward and the first natural turn's
+first bar (a turn of 90°, the step away from the forearm, the side step along it)."""
 
 SCENARIOS: dict[str, Scenario] = {
     s.name: s
@@ -450,9 +451,15 @@ SCENARIOS: dict[str, Scenario] = {
         Scenario("whole_body", "Fig. 8: periodic touches on the three skin links",
                  SCENARIO_WHOLE_BODY_LENGTH, 12.0, Q_HOME, WHOLE_BODY_PARAMS,
                  whole_body_script, "whole_body"),
-        Scenario("waltz", "Fig. 1: the torso leads a waltz box-step through the waist",
-                 waltz_duration(), 20.0, Q_WALTZ, WALTZ_PARAMS, waltz_script, "waltz",
-                 settle=WALTZ_SETTLE),
+        Scenario("waltz", "Fig. 1: the partner leads a waltz (paper tempo) through the waist",
+                 waltz_duration("paper"), WALTZ_SHORT, Q_WALTZ, WALTZ_PARAMS, waltz_script,
+                 "waltz", settle=WALTZ_SETTLE),
+        Scenario("waltz_tempo", "Fig. 1 at a real slow-waltz tempo (bar 2 s)",
+                 waltz_duration("tempo"), waltz_duration("tempo"), Q_WALTZ, WALTZ_TEMPO_PARAMS,
+                 partial(waltz_script, tempo="tempo"), "waltz", settle=WALTZ_SETTLE),
+        Scenario("waltz_paper", "Fig. 1 (paper tempo) with the paper's literal parameter set",
+                 waltz_duration("paper"), WALTZ_SHORT, Q_WALTZ, WALTZ_PAPER_PARAMS, waltz_script,
+                 "waltz", settle=WALTZ_SETTLE),
     )
 }
 

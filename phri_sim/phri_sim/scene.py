@@ -22,6 +22,7 @@ in the MuJoCo Menagerie layout; ``python -m phri_sim.scene DIR`` does it from th
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 import mujoco
@@ -107,6 +108,14 @@ def _capsule_or_sphere_volume(g: GeomSpec) -> float:
     return float(volume)
 
 
+_AXIS_QUAT: dict[str, tuple[float, float, float, float]] = {
+    "z": (1.0, 0.0, 0.0, 0.0),
+    "y": (math.sqrt(0.5), -math.sqrt(0.5), 0.0, 0.0),
+    "x": (math.sqrt(0.5), 0.0, math.sqrt(0.5), 0.0),
+}
+"""Geom orientation that lays a capsule's z axis along the body axis named (w x y z)."""
+
+
 def _add_geoms(body: mujoco.MjsBody, geoms: list[GeomSpec], mass: float) -> None:
     """Add the part's geoms to ``body`` with ``mass`` [kg] spread by volume (uniform density)."""
     volume = sum(_capsule_or_sphere_volume(g) for g in geoms)
@@ -120,6 +129,7 @@ def _add_geoms(body: mujoco.MjsBody, geoms: list[GeomSpec], mass: float) -> None
         size[: len(g.size)] = g.size
         geom.size = size
         geom.pos = np.array(g.pos)
+        geom.quat = np.array(_AXIS_QUAT[g.axis])
         geom.rgba = np.array(g.rgba)
         geom.contype = PERSON_CONTYPE
         geom.conaffinity = PERSON_CONAFFINITY
@@ -163,6 +173,16 @@ def _add_part(spec: mujoco.MjSpec, part: BodyPartSpec) -> None:
         joint.springref = 0.0
         joint.limited = mujoco.mjtLimited.mjLIMITED_TRUE
         joint.range = np.array([-tissue.travel, tissue.travel])
+    if tissue.yaw_stiffness > 0.0:
+        hinge = layer.add_joint()
+        hinge.name = f"{part.tissue_body}_yaw"
+        hinge.type = mujoco.mjtJoint.mjJNT_HINGE
+        hinge.axis = np.array([0.0, 0.0, 1.0])
+        hinge.stiffness = np.array([tissue.yaw_stiffness, 0.0, 0.0])
+        hinge.damping = np.array([tissue.yaw_damping, 0.0, 0.0])
+        hinge.springref = 0.0
+        hinge.limited = mujoco.mjtLimited.mjLIMITED_TRUE
+        hinge.range = np.array([-tissue.yaw_travel, tissue.yaw_travel])
     _add_geoms(layer, [g for g in part.geoms if g.name in soft], tissue.mass)
 
 

@@ -62,7 +62,8 @@ class SimPerson:
         self._tissue_dofs: dict[str, list[int]] = {}
         for p in parts:
             if p.tissue is not None:
-                joints = [m.joint(f"{p.tissue_body}_{a}").id for a in ("x", "y")]
+                axes = ("x", "y", "yaw") if p.tissue.yaw_stiffness > 0.0 else ("x", "y")
+                joints = [m.joint(f"{p.tissue_body}_{a}").id for a in axes]
                 self._tissue_qpos[p.name] = [int(m.jnt_qposadr[j]) for j in joints]
                 self._tissue_dofs[p.name] = [int(m.jnt_dofadr[j]) for j in joints]
         self.targets: dict[str, PartTarget] = {}

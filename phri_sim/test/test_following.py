@@ -176,3 +176,34 @@ def test_bad_input_names_the_parameter() -> None:
         Bars(band_low=30.0)
     with pytest.raises(ValueError, match="partner poses"):
         relative_pose(np.zeros((3, 3)), np.zeros((3, 2)))
+
+
+def _orbiting_couple(n: int = 200) -> tuple[np.ndarray, np.ndarray]:
+    """A couple turning 270° counter-clockwise about a point between them (as in a natural
+    turn): the base at radius 0.7 facing the tangent, the partner at radius 0.1 opposite it,
+    facing the tangent the other way; both turn with the couple."""
+    phi = np.linspace(0.0, 1.5 * math.pi, n)
+    base = np.column_stack([0.7 * np.cos(phi), 0.7 * np.sin(phi), phi + 0.5 * math.pi])
+    partner = np.column_stack([0.1 * np.cos(phi + math.pi), 0.1 * np.sin(phi + math.pi),
+                               phi - 0.5 * math.pi])
+    return base, partner
+
+
+def test_a_couple_turning_together_has_no_drift() -> None:
+    """The base travels 3.3 m on its orbit, but the partner stays put in its frame."""
+    base, partner = _orbiting_couple()
+    out = drift(relative_pose(base, partner))
+    assert out["position_drift_max"] == pytest.approx(0.0, abs=1e-12)
+    assert out["heading_drift_max_deg"] == pytest.approx(0.0, abs=1e-9)
+    assert accumulated_turn(base[:, 2])["left_deg"] == pytest.approx(270.0)
+    assert accumulated_turn(partner[:, 2])["left_deg"] == pytest.approx(270.0)
+
+
+def test_a_still_robot_beside_a_turning_partner_sees_the_circle() -> None:
+    """The partner orbits 0.1 m about the origin; a robot standing at (0.7, 0) sees its
+    position drift up to the circle's diameter and its heading drift through 180°."""
+    _, partner = _orbiting_couple()
+    base = np.tile([0.7, 0.0, 0.0], (partner.shape[0], 1))
+    out = drift(relative_pose(base, partner))
+    assert out["position_drift_max"] == pytest.approx(0.2, abs=1e-4)
+    assert out["heading_drift_max_deg"] == pytest.approx(180.0, abs=1.0)

@@ -20,6 +20,7 @@ from phri_sim.profiles import minimum_jerk, minimum_jerk_rate
 from phri_sim.scenarios import (
     SCENARIOS,
     WALTZ_FORCE,
+    WALTZ_START_YAW,
     start_scenario,
     waltz_contact,
 )
@@ -60,7 +61,7 @@ def test_waltz_starts_resting_at_the_preload() -> None:
     assert deflection == pytest.approx(force / TORSO.tissue.stiffness, rel=0.05)
     # The layer is pushed away from the forearm, i.e. opposite to the waist→forearm direction.
     _, inward = waltz_contact(sim)
-    yaw = 0.0
+    yaw = WALTZ_START_YAW  # the slide joints lie in the torso frame
     c, s = math.cos(yaw), math.sin(yaw)
     d = _tissue_deflection(sim)
     world = np.array([c * d[0] - s * d[1], s * d[0] + c * d[1]])
@@ -76,9 +77,9 @@ def test_tissue_is_at_least_critically_damped() -> None:
 
 
 def test_turning_waist_keeps_a_continuous_contact() -> None:
-    """The torso turns against the held forearm (as in the waltz's second box): the contact
-    force must not drop to zero at any physics step (a stiff contact flickers on and off under
-    a sliding, turning body)."""
+    """The torso turns against the held forearm (as in the waltz's turns, at the `tempo`
+    tempo's rate): the contact force must not drop to zero at any physics step (a stiff contact
+    flickers on and off under a sliding, turning body)."""
     sim = _quiet_sim()
     script = start_scenario(sim, SCENARIOS["waltz"])
     base = script(0.0)["person_torso"]
@@ -86,9 +87,45 @@ def test_turning_waist_keeps_a_continuous_contact() -> None:
     forces = []
     for k in range(50):  # 1 s in 20 ms target updates
         t = k * 0.02
-        sim.set_target("person_torso", PartTarget(base.position, np.zeros(3), omega * t))
+        sim.set_target("person_torso", PartTarget(base.position, np.zeros(3),
+                                                  base.yaw + omega * t))
         forces.extend(_hold_robot(sim, 0.02))
     assert min(forces) > 0.3 * WALTZ_FORCE
+
+
+def _lead_after_turn(turn: float) -> tuple[float, float]:
+    """(moment about +z (world) of the skin's pressure about the middle of its footprint [N·m],
+    total taxel force [N]) after the torso turned by ``turn`` [rad] against the held forearm and
+    settled: the skin's own taxel forces (the footprint model), centroid and footprint middle
+    along the link axis."""
+    sim = _quiet_sim()
+    script = start_scenario(sim, SCENARIOS["waltz"])
+    base = script(0.0)["person_torso"]
+    sim.set_target("person_torso", PartTarget(base.position, np.zeros(3), base.yaw + turn))
+    _hold_robot(sim, 1.5)
+    forces = sim.skins.clean_forces()["left_forearm"]
+    positions = sim.skins.patches["left_forearm"].positions
+    touched = forces > 1e-3 * forces.max()
+    centroid = forces @ positions / forces.sum()
+    middle = 0.5 * (positions[touched].min(axis=0) + positions[touched].max(axis=0))
+    rot, _ = sim.link_pose("left_forearm_link")
+    lever = rot @ (centroid - middle)
+    push = np.array([0.0, forces.sum(), 0.0])  # the waist pushes the forearm along +y (world)
+    return float(np.cross(lever, push)[2]), float(forces.sum())
+
+
+@pytest.mark.parametrize("turn", [math.radians(6.0), -math.radians(6.0)])
+def test_turned_back_leads_the_turn_through_the_skin(turn: float) -> None:
+    """The stadium waist (its back along world x at the start, the forearm on its +y side):
+    turned counter-clockwise, its +x end swings towards the forearm and takes more of the
+    pressure, so the pressure's moment about the footprint's middle is +z — the partner's own
+    turn direction, the lead the controller's (F1) follows; mirrored for a clockwise turn. Not
+    turned, the moment is an order of magnitude smaller."""
+    moment, force = _lead_after_turn(turn)
+    assert force > 0.3 * WALTZ_FORCE
+    assert math.copysign(1.0, moment) == math.copysign(1.0, turn)
+    still, _ = _lead_after_turn(0.0)
+    assert abs(moment) > 0.02 and abs(still) < 0.2 * abs(moment)
 
 
 def _expected_wrench(sim: Simulation, part: BodyPartSpec, position: np.ndarray,

@@ -127,6 +127,12 @@ class Admittance:
         values = state.tolist()
         self._x, self._v = values[0:6], values[6:12]
 
+    def set_rotation(self, deflection: tuple[float, float, float],
+                     rate: tuple[float, float, float]) -> None:
+        """Replace the rotational part of the state: x̃_ω [rad], ẋ̃_ω [rad/s]."""
+        self._x = [*self._x[0:3], *deflection]
+        self._v = [*self._v[0:3], *rate]
+
     def reset(self) -> None:
         """``x̃, ẋ̃ ← 0`` (Algorithm 1, line 10)."""
         self._x = [0.0] * 6

@@ -188,6 +188,8 @@ class ControllerConfig:
             intersected with the robot's own velocity limits.
         joint_ranges: extra position ranges (intersected with the joint limits).
         safety: the graded force response and contact gating (:mod:`contact_safety`).
+        lead_moment: every task adds the lead moment about its hold point and carries its
+            reference (:mod:`~wholebody_controller.following`); off = the paper's task.
         solver: QP backend, ``"daqp"`` (exact active set, default: faster and exact) or
             ``"osqp"`` (the paper's, warm-started with tight tolerances).
     """
@@ -207,6 +209,7 @@ class ControllerConfig:
     joint_ranges: tuple[JointRange, ...] = ()
     solver: str = "daqp"
     safety: SafetyConfig = field(default_factory=SafetyConfig)
+    lead_moment: bool = False
 
     def __post_init__(self) -> None:
         checks = {

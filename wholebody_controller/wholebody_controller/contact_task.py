@@ -36,6 +36,7 @@ from wholebody_controller.contact_safety import (
     SafetyConfig,
     limit_approach,
 )
+from wholebody_controller.following import lead_moment, leash_reference
 from wholebody_controller.linalg3 import matmul, matmul_transpose, rotate, rotate_pair
 from wholebody_controller.region import DesiredRegion
 from wholebody_controller.region import track_force as track_force  # (10)–(11), re-exported
@@ -224,8 +225,11 @@ class ContactTask:
     def __init__(self, config: LinkTaskConfig, *, k_eta: float, b: float, k_p: float,
                  psi_thr: float, region_margin: float, dt: float,
                  safety: SafetyConfig | None = None, region_window: float = 0.0,
-                 region_hysteresis: float = 0.0) -> None:
+                 region_hysteresis: float = 0.0, lead: bool = False) -> None:
         self.config = config
+        self.lead = lead
+        """Add the lead moment (F1) about the region's middle and carry the reference (F2)
+        (:mod:`~wholebody_controller.following`)."""
         self.safety = safety or SafetyConfig()
         assert config.force_limit is not None and config.transient_force_limit is not None
         self.guard = ForceGuard(config.force_limit, config.transient_force_limit, self.safety)
@@ -238,6 +242,7 @@ class ContactTask:
         self.admittance = Admittance(
             diag6(gains.inertia), diag6(gains.damping), diag6(gains.stiffness), dt
         )
+        self._carry = lead and not any(gains.stiffness[3:6])
         self.no_contact = ContactState.no_contact(config.link, 0)
         user = None
         if config.reference is not None:
@@ -303,7 +308,12 @@ class ContactTask:
                 mu = self.region.track_force(lo, hi)
                 if mu == _ZERO3:
                     mu = _ZERO3  # the shared zero: no rotation needed downstream
-            wrench = contact_wrench(force, contact.torque.tolist(), mu, self.k_eta, rot)
+            torque = contact.torque.tolist()
+            if self.lead:
+                tx, ty, tz = lead_moment(self._point, contact.region_min.tolist(),
+                                         contact.region_max.tolist(), force)
+                torque = [torque[0] + tx, torque[1] + ty, torque[2] + tz]
+            wrench = contact_wrench(force, torque, mu, self.k_eta, rot)
         fx, fy, fz = self.desired_force
         if desired_scale > 0.0 and (fx != 0.0 or fy != 0.0 or fz != 0.0):
             fx, fy, fz = desired_scale * fx, desired_scale * fy, desired_scale * fz
@@ -327,6 +337,18 @@ class ContactTask:
         (dx, dy, dz), (sx, sy, sz) = sliding_terms(rot_d, rot, rate)
         return (lx + (dx - sx), ly + (dy - sy), lz + (dz - sz), *angular,
                 lx + dx, ly + dy, lz + dz, *angular)
+
+    def _carry_reference(self, rot: Mat9) -> None:
+        """(F2): re-base the locked reference when the desired orientation leads the link's
+        ``rot`` by more than the leash."""
+        reference = self.life_cycle.reference
+        if reference is None:
+            return
+        x, v = self.admittance.state_f
+        carried = leash_reference(reference[0], (x[3], x[4], x[5]), (v[3], v[4], v[5]), rot)
+        if carried is not None:
+            self.life_cycle.reference = (carried[0], reference[1])
+            self.admittance.set_rotation((0.0, 0.0, 0.0), carried[1])
 
     def _safety(self, force: Vec3 | None, in_contact: bool,
                 pos: Vec3) -> tuple[float, float, Vec3 | None]:
@@ -400,6 +422,8 @@ class ContactTask:
         if deactivated:
             adm.reset()  # line 10
             self.region.reset()
+        if active and self._carry:
+            self._carry_reference(rot)
         if active and contact.in_contact:  # line 14 (and the onset window, :mod:`region`)
             self.region.update(contact.region_min.tolist(), contact.region_max.tolist())
         if active:

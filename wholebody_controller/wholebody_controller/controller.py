@@ -161,7 +161,7 @@ class WholeBodyController:
                     link_cfg, k_eta=config.k_eta, b=config.b, k_p=config.k_p,
                     psi_thr=config.psi_thr, region_margin=config.region_margin, dt=config.dt,
                     safety=config.safety, region_window=config.region_window,
-                    region_hysteresis=config.region_hysteresis,
+                    region_hysteresis=config.region_hysteresis, lead=config.lead_moment,
                 )
             )
         lower = self._robot_position_limits[:, 0].copy()

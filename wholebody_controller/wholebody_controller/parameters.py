@@ -58,6 +58,9 @@ GLOBAL_PARAMS: list[ParamSpec] = [
               "rad", -7.0, 7.0, length=12),
     ParamSpec("q_dance_range", paper.Q_DANCE_HALF_WIDTH,
               "half width of the q_dance joint ranges", "rad", 0.0, 6.3),
+    ParamSpec("lead_moment", False,
+              "follow a turning lead: moment of the contact force about the contact region's "
+              "middle (F1) and a leashed reference (F2); false = the paper's task"),
     ParamSpec("solver", "daqp", "QP backend: daqp (exact, default) or osqp (warm-started)"),
     ParamSpec("contact_timeout", 0.1, "contact state older than this → zero command", "s",
               1e-3, 10.0),
@@ -200,4 +203,5 @@ def config_from_values(
         joint_ranges=ranges,
         solver=solver,
         safety=_safety_config(values),
+        lead_moment=bool(values["lead_moment"]),
     )
