@@ -58,6 +58,7 @@ def _parser() -> argparse.ArgumentParser:
     sim.add_argument("--out", default=None,
                      help="output directory (default runs/<scenario>)")
     sim.add_argument("--duration", type=float, default=None, help="simulated length [s]")
+    _domain_argument(sim)
     sim.add_argument("--short", action="store_true", help="the shortened CI length")
     sim.add_argument("--seed", type=int, default=0, help="skin noise seed (same seed → same run)")
     sim.add_argument("--fault", choices=FAULT_CHOICES, default=None, help=FAULT_HELP)
@@ -123,6 +124,7 @@ def _parser() -> argparse.ArgumentParser:
     report.add_argument("--seed", type=int, default=0, help="skin noise seed (default 0)")
     report.add_argument("--page", default=None, help="markdown page to write (default "
                         "OUT/paper_vs_phri.md; the repository's is docs/paper_vs_phri.md)")
+    _domain_argument(report)
 
     layouts = sub.add_parser("layouts", help="write nominal skin layout files (real robot)")
     layouts.add_argument("directory")
@@ -144,6 +146,24 @@ def _following_arguments(sub: Any, sim: argparse.ArgumentParser) -> None:
     follow.add_argument("--seed", type=int, default=0, help="skin noise seed")
     follow.add_argument("--motionless", action="store_true",
                         help="the map of a motionless robot (zero-command stub)")
+    _domain_argument(follow)
+
+
+def _domain_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--ros-domain-id", type=int, default=None, metavar="N",
+                        help="ROS domain of the run's nodes, 0…232 (default: $ROS_DOMAIN_ID if "
+                             "set, else a private one, localhost only; phri_common.ros_domain)")
+
+
+def _enter_domain(args: argparse.Namespace) -> int:
+    """Apply the run's ROS domain (:func:`phri_common.ros_domain.run_domain`) to this process's
+    environment, before any rclpy.init; returns it."""
+    from phri_common.ros_domain import run_domain
+
+    domain, env, why = run_domain(args.ros_domain_id, os.environ)
+    os.environ.update(env)
+    _log(why)
+    return domain
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -175,6 +195,7 @@ def _progress_printer(start: float) -> Any:
 def cmd_sim(args: argparse.Namespace) -> int:
     """``phri sim``: run, then plots and video from the recording."""
     os.environ.setdefault("MUJOCO_GL", "egl")
+    _enter_domain(args)
     from phri_bringup.graph import canonical_scenario, scenario_file
     from phri_bringup.observer import RecordingSink, Sink
     from phri_bringup.session import StopFlag, run_session
@@ -289,6 +310,7 @@ def cmd_followability(args: argparse.Namespace) -> int:
     from phri_bringup.following_report import map_lines, plot_map
     from phri_sim.followability import FULL_FORM, SHORT_FORM, run_map
 
+    _enter_domain(args)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
@@ -432,8 +454,8 @@ def cmd_layouts(args: argparse.Namespace) -> int:
 
 
 def cmd_paper_report(args: argparse.Namespace) -> int:
-    """``phri paper-report``: Figs 6–8 pages and the paper-vs-phri page, in an isolated ROS
-    domain (an in-process run must not hear other ROS processes on the machine)."""
+    """``phri paper-report``: Figs 6–8 pages and the paper-vs-phri page, in the run's ROS
+    domain (private by default: an in-process run must not hear other ROS processes)."""
     import rclpy
     from rclpy.context import Context
 
@@ -441,9 +463,7 @@ def cmd_paper_report(args: argparse.Namespace) -> int:
 
     out = Path(args.out)
     page = Path(args.page) if args.page else out / "paper_vs_phri.md"
-    domain = 1 + os.getpid() % 100
-    os.environ["ROS_DOMAIN_ID"] = str(domain)
-    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    domain = _enter_domain(args)
     context = Context()
     rclpy.init(context=context, domain_id=domain)
     try:
