@@ -35,6 +35,7 @@ from visualization_msgs.msg import MarkerArray
 
 from contact_estimation.estimator import (
     DEFAULT_MAX_TAXEL_FORCE,
+    KERNELS,
     MAX_TAXEL_FORCE_RANGE,
     PAPER_TORQUE_LIMIT,
     ContactEstimator,
@@ -74,6 +75,8 @@ PARAMS: list[ParamSpec] = [
               high=MAX_TAXEL_FORCE_RANGE[1]),
     ParamSpec("stuck_timeout", 0.5, "a touched patch whose frame repeats bit for bit for longer "
               "than this is stuck: its frames are refused", unit="s", low=0.01, high=60.0),
+    ParamSpec("kernel", KERNELS[0], "how the per-link sums are computed: numba (compiled, "
+              "default) or numpy (the reference); same states to rounding"),
     ParamSpec("publish_markers", True, "publish rviz markers on contacts/markers"),
     ParamSpec("marker_rate_hz", 30.0, "most marker arrays per second per link (state time; a "
               "contact that starts or ends is always drawn); 0 = every frame", unit="Hz",
@@ -102,6 +105,7 @@ def config_from_values(values: dict[str, ParamValue]) -> EstimatorConfig:
         torque_limit=(float(limit[0]), float(limit[1]), float(limit[2])),
         max_taxel_force=float(values["max_taxel_force"]),
         stuck_timeout=float(values["stuck_timeout"]),
+        kernel=str(values["kernel"]),
     )
 
 
