@@ -271,14 +271,16 @@ class StuckDetector:
         self._since: dict[str, int] = {}
 
     def check(self, patch: str, norm2: float, forces: FloatArray, previous: FloatArray,
-              stamp_ns: int) -> None:
-        """Take ``patch``'s new frame (‖f‖² = ``norm2``) against its ``previous`` forces.
+              stamp_ns: int, unchanged: bool | None = None) -> None:
+        """Take ``patch``'s new frame (‖f‖² = ``norm2``) against its ``previous`` forces
+        (``unchanged``: their element-wise equality where the caller has computed it).
 
         Raises:
             InvalidTaxelData: the patch has been stuck for longer than the timeout.
         """
-        if (norm2 == 0.0 or norm2 != self._fingerprint.get(patch)
-                or not np.array_equal(forces, previous)):
+        if unchanged is None:
+            unchanged = norm2 == self._fingerprint.get(patch) and np.array_equal(forces, previous)
+        if norm2 == 0.0 or norm2 != self._fingerprint.get(patch) or not unchanged:
             self._fingerprint[patch] = norm2
             self._since[patch] = stamp_ns
             return
@@ -414,10 +416,22 @@ class ContactEstimator:
             raise InvalidTaxelData(
                 f"patch {patch!r}: {forces.shape} forces for {c1 - c0} taxels"
             )
-        norm2 = check_forces(forces, self.config.max_taxel_force)
-        self._stuck.check(patch, norm2, forces, self._forces[c0:c1], stamp_ns)
-        self._forces[c0:c1] = forces
+        previous = self._forces[c0:c1]
+        norm2, unchanged = self._norm2(forces, previous)
+        self._stuck.check(patch, norm2, forces, previous, stamp_ns, unchanged)
+        previous[:] = forces
         self._stamps[patch] = stamp_ns
+
+    def _norm2(self, forces: FloatArray, previous: FloatArray) -> tuple[float, bool | None]:
+        """Range check of a new frame (:func:`check_forces`): ``(‖f‖² [N²], f == previous,
+        or None where not computed)``; raises :class:`InvalidTaxelData` as check_forces."""
+        limit = self.config.max_taxel_force
+        if self.config.kernel == "numpy" or forces.ndim != 1:
+            return check_forces(forces, limit), None
+        norm2, unchanged = fused.norm2_and_unchanged(forces, previous)
+        if norm2 <= limit * limit:
+            return norm2, unchanged
+        return check_forces(forces, limit), None  # names the bad value, or clears the alarm
 
     def update(
         self, patch: str, taxels: TaxelArray, check_geometry: bool = True

@@ -7,6 +7,7 @@ reductions: for every taxel with force F > σ_t [N] it adds the geometry row (mo
 rows multiplied by F, to its link's sums, and widens the link's box Ω_i of positions p [m].
 That is the arithmetic of (5), (9a), (9b) and Sec. IV-B, nothing else: the centre, the torque
 about it and its limit are computed from the sums by the estimator, for both kernels alike.
+:func:`norm2_and_unchanged` fuses the hot path's range test (‖f‖²) and stuck-skin comparison.
 
 Compiled with ``cache=True``: the machine code is written next to this module (or to numba's
 user cache) on the first run and loaded afterwards, so a node starts in well under a second
@@ -80,8 +81,28 @@ def link_sums(forces: NDArray[np.float64], rows_t: NDArray[np.float64], threshol
         row[width + 6] = count
 
 
+@njit(cache=True, nogil=True)
+def norm2_and_unchanged(forces: NDArray[np.floating],
+                        previous: NDArray[np.float64]) -> tuple[float, bool]:  # pragma: no cover
+    """One pass over a new frame's forces [N]: ``(‖f‖² [N²], f == previous element-wise)``.
+
+    The same ‖f‖² as :func:`contact_estimation.estimator.check_forces` (which runs whenever it
+    exceeds the range, to name the bad value) and the same comparison as the stuck detector's
+    ``np.array_equal``, without a second pass over the arrays.
+    """
+    norm2 = 0.0
+    unchanged = True
+    for j in range(forces.shape[0]):
+        f = forces[j]
+        norm2 += f * f
+        if f != previous[j]:
+            unchanged = False
+    return norm2, unchanged
+
+
 def warm_up() -> None:
     """Compile (first run) or load (later runs) :func:`link_sums` ahead of the first frame."""
     rows = np.zeros((1, 9))
     link_sums(np.ones(1), rows, 0.0, np.array([0, 1], dtype=np.int64), 0, 1,
               np.zeros((1, 9 + TABLE_EXTRA)))
+    norm2_and_unchanged(np.ones(1), np.ones(1))

@@ -85,3 +85,21 @@ def test_fused_kernel_matches_numpy_reference(seed: int, n_patches: int, n_links
 def test_unknown_kernel_is_refused_with_the_allowed_values() -> None:
     with pytest.raises(ValueError, match=r"kernel refused value 'fortran'.*numba.*numpy"):
         EstimatorConfig(kernel="fortran")
+
+
+@settings(max_examples=50, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 500), same=st.booleans(),
+       float32=st.booleans())
+def test_norm2_and_unchanged_match_the_numpy_checks(seed: int, n: int, same: bool,
+                                                    float32: bool) -> None:
+    from contact_estimation.fused import norm2_and_unchanged
+
+    rng = np.random.default_rng(seed)
+    forces = rng.uniform(-30.0, 30.0, n).astype(np.float32 if float32 else np.float64)
+    previous = forces.astype(np.float64)
+    if not same:
+        previous[rng.integers(n)] += 1e-3
+    norm2, unchanged = norm2_and_unchanged(forces, previous)
+    expected = forces.astype(np.float64)
+    assert norm2 == pytest.approx(float(expected @ expected), rel=1e-12)
+    assert unchanged == np.array_equal(forces, previous)
