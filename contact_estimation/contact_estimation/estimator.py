@@ -318,6 +318,7 @@ class ContactEstimator:
         self._order = [p for patches in self.links.values() for p in patches]
         self._geometry: dict[str, tuple[FloatArray, FloatArray, FloatArray | None]] = {}
         self._stamps: dict[str, int] = dict.fromkeys(self.patch_links, 0)
+        self._taken: dict[str, tuple[FloatArray, FloatArray, FloatArray | None]] = {}
         self._stuck = StuckDetector(self.config.stuck_timeout)
         self._limit = tuple(float(x) for x in self.config.torque_limit)
         self._build()
@@ -386,6 +387,7 @@ class ContactEstimator:
         except InvalidTaxelData as err:
             raise InvalidTaxelData(f"patch {patch!r}: {err}") from err
         copy = None if weights is None else np.array(weights, dtype=np.float64)
+        self._taken.pop(patch, None)  # the next frame's geometry is checked against this one
         if patch in self._columns:  # a new geometry invalidates the patch's old forces
             c0, c1 = self._columns[patch]
             self._forces[c0:c1] = 0.0
@@ -441,7 +443,9 @@ class ContactEstimator:
         ``check_geometry=False`` skips comparing the frame's positions/normals/weights with the
         known geometry (two array comparisons, ~25 µs for 2,000 taxels); a first frame or a
         change in taxel count is always taken as new geometry. The refusals (NaN/Inf anywhere,
-        forces beyond ``max_taxel_force``, an empty cloud) apply to every frame either way.
+        forces beyond ``max_taxel_force``, an empty cloud) apply to every frame either way,
+        except that geometry arrays that are the very objects of the patch's last taken frame
+        (read-only, so unchanged) are not checked again (:meth:`_take_geometry`).
 
         Raises:
             UnknownPatchError: ``patch`` is not configured.
@@ -449,7 +453,26 @@ class ContactEstimator:
         """
         link = self._patch_link(patch)
         _check_shapes(taxels.positions, taxels.normals, taxels.forces, taxels.weights)
-        norm2 = check_forces(taxels.forces, self.config.max_taxel_force)
+        geometry = (taxels.positions, taxels.normals, taxels.weights)
+        known_objects = self._taken.get(patch)
+        if known_objects is None or any(
+            a is not b for a, b in zip(geometry, known_objects, strict=True)
+        ):
+            self._take_geometry(patch, taxels, check_geometry)
+        c0, c1 = self._columns[patch]
+        previous = self._forces[c0:c1]
+        norm2, unchanged = self._norm2(taxels.forces, previous)
+        self._stuck.check(patch, norm2, taxels.forces, previous, taxels.stamp_ns, unchanged)
+        previous[:] = taxels.forces  # checked above, shape fixed by the geometry
+        self._stamps[patch] = taxels.stamp_ns
+        i = self._link_index[link]
+        return self._states(i, i + 1)[link]
+
+    def _take_geometry(self, patch: str, taxels: TaxelArray, check_geometry: bool) -> None:
+        """Check a frame's geometry values and take them as the patch's geometry if new (or
+        if its size changed); remember the frame's (read-only) array objects, so a frame
+        handing over the very same objects (a composed skin driver passes its layout's
+        arrays every frame) skips these checks: a TaxelArray's arrays cannot be written."""
         check_geometry_values(taxels.positions, taxels.normals, taxels.weights)
         known = self._geometry.get(patch)
         if (
@@ -458,12 +481,7 @@ class ContactEstimator:
             or (check_geometry and self._geometry_changed(known, taxels))
         ):
             self.set_geometry(patch, taxels.positions, taxels.normals, taxels.weights)
-        c0, c1 = self._columns[patch]
-        self._stuck.check(patch, norm2, taxels.forces, self._forces[c0:c1], taxels.stamp_ns)
-        self._forces[c0:c1] = taxels.forces  # checked above, shape fixed by the geometry
-        self._stamps[patch] = taxels.stamp_ns
-        i = self._link_index[link]
-        return self._states(i, i + 1)[link]
+        self._taken[patch] = (taxels.positions, taxels.normals, taxels.weights)
 
     @staticmethod
     def _geometry_changed(
