@@ -34,7 +34,7 @@ state used). Commands map to frames through those stamps. Nothing in the node's 
 (``phri_bringup.skin_contact_node``: direct hand-off, taxel topics at HZ).
 
 Run: ``.venv/bin/python bench/bench_chain.py [--seconds 60] [--taxels 2000] [--boards 3]
-[--rate 500] [--executor single|events] [--composed 50] [--no-markers]``. Keep runs ≤ 2 min
+[--rate 500] [--executor events|single] [--composed 50] [--no-markers]``. Keep runs ≤ 2 min
 on a shared machine.
 """
 
@@ -56,6 +56,7 @@ from typing import Any
 import numpy as np
 
 from phri_common.procstat import MachineCpu, load_line, process_cpu_s
+from phri_common.ros_main import EXECUTORS
 from phri_common.testing import isolate_ros_environment
 from phri_description.description import SKIN_LINKS, SKIN_PATCHES
 
@@ -414,7 +415,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--controller-rate", type=float, default=500.0, help="[Hz]")
     p.add_argument("--inputs-rate", type=float, default=100.0,
                    help="joint state and odometry rate of this process [Hz]")
-    p.add_argument("--executor", choices=("single", "events"), default="single",
+    p.add_argument("--executor", choices=EXECUTORS, default=EXECUTORS[0],
                    help="PHRI_EXECUTOR of the node processes (phri_common.ros_main)")
     p.add_argument("--composed", type=float, default=None, metavar="HZ",
                    help="drivers and estimation in one process (phri_bringup.skin_contact_node),"

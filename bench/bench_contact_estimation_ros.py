@@ -25,6 +25,7 @@ from rclpy.executors import SingleThreadedExecutor
 from sensor_msgs.msg import PointCloud2
 
 from phri_common.procstat import load_line
+from phri_common.ros_main import EXECUTOR_ENV, EXECUTORS
 from phri_common.stamps import stamp_to_ns
 from phri_common.taxels import TaxelCloudEncoder
 from phri_common.testing import isolate_ros_environment
@@ -81,7 +82,7 @@ def main() -> None:
     parser.add_argument("--rate", type=float, default=500.0)
     args = parser.parse_args()
     print(load_line())
-    print(f"node executor (PHRI_EXECUTOR): {os.environ.get('PHRI_EXECUTOR') or 'single'}")
+    print(f"node executor (PHRI_EXECUTOR): {os.environ.get(EXECUTOR_ENV) or EXECUTORS[0]}")
     isolate_ros_environment()
     exe = Path(sys.executable).with_name("contact_estimation_node")
     node_proc = subprocess.Popen(

@@ -12,8 +12,9 @@
    ``FrameTask``s on the same links, ``ConfigurationLimit`` and ``VelocityLimit``, with daqp and
    OSQP; timed per call including ``Configuration.update``.
 3. ``node`` (``--node-seconds``): the controller node at 500 Hz in this process, spun like
-   ``phri_common.ros_main.run_nodes`` (single-threaded executor), with its inputs (joint states,
-   odometry, three contact states at 500 Hz) published by a separate peer process: loop period
+   ``phri_common.ros_main.run_nodes`` (``PHRI_EXECUTOR``, default events), with its inputs
+   (joint states, odometry, three contact states at 500 Hz) published by a separate peer
+   process: loop period
    median, p99 of |period − 2 ms|, max.
 
 All cases are timed in interleaved rounds so that a change of machine load hits every row alike.
@@ -24,6 +25,7 @@ Prints median and p99 in µs.
 from __future__ import annotations
 
 import argparse
+import os
 import subprocess
 import sys
 import time
@@ -302,9 +304,9 @@ def run_peer(seconds: float) -> None:
 def bench_node(seconds: float) -> None:
     import rclpy
     from geometry_msgs.msg import Twist
-    from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter import Parameter
 
+    from phri_common.ros_main import EXECUTOR_ENV, EXECUTORS, make_executor
     from phri_common.testing import isolate_ros_environment
     from wholebody_controller.node import WholeBodyControllerNode
 
@@ -326,7 +328,7 @@ def bench_node(seconds: float) -> None:
     commands: list[int] = []
     node.create_subscription(Twist, "/cmd_vel", lambda _m: commands.append(1), 10)
     peer = subprocess.Popen([sys.executable, __file__, "--peer", str(seconds + 70.0)])
-    executor = SingleThreadedExecutor(context=context)
+    executor = make_executor(context=context)  # PHRI_EXECUTOR, as run_nodes
     executor.add_node(node)
 
     def spin_for(duration: float) -> None:
@@ -353,7 +355,8 @@ def bench_node(seconds: float) -> None:
     node.destroy_node()
     context.try_shutdown()
     jitter = np.abs(periods - 2.0)
-    print(f"\nnode at 500 Hz over {seconds:.0f} s (single-threaded executor, inputs from a peer "
+    kind = os.environ.get(EXECUTOR_ENV) or EXECUTORS[0]
+    print(f"\nnode at 500 Hz over {seconds:.0f} s (executor '{kind}', inputs from a peer "
           f"process): {len(periods)} periods, median {np.median(periods):.3f} ms, jitter p99 "
           f"{np.percentile(jitter, 99):.3f} ms, max {np.max(periods):.3f} ms; control cycles "
           f"{good} good / {zero} zero; tick callback median {np.median(tick_us):.0f} µs, p99 "
