@@ -96,6 +96,11 @@ def _board_process(index: int, port: str, layout_file: str, rate: float, stop: A
 
 
 # -- the controller process ---------------------------------------------------------------------
+PROBED_METHODS = ("on_contact", "tick", "destroy_node")
+"""The controller node's methods the probe wraps (a renamed one would silently record nothing:
+``test_bench_scripts.py`` checks they exist)."""
+
+
 def run_controller_probe(out: str, ros_args: Sequence[str]) -> int:
     """The controller node as deployed (``run_nodes``), with recording probes (module doc)."""
     from phri_common.ros_main import run_nodes
@@ -106,9 +111,9 @@ def run_controller_probe(out: str, ros_args: Sequence[str]) -> int:
     commands: list[tuple[int, ...]] = []
 
     class ProbedController(WholeBodyControllerNode):
-        def _on_contact(self, link: str, msg: Any) -> None:
+        def on_contact(self, link: str, msg: Any) -> None:
             now = time.time_ns()
-            super()._on_contact(link, msg)
+            super().on_contact(link, msg)
             state = self.contacts.get(link)
             if state is not None:
                 force = round(float(np.linalg.norm(state.force)) * 1e6)  # [µN]
@@ -398,6 +403,9 @@ def measure(args: argparse.Namespace, tmp: Path) -> None:
         inputs.close()
     cpu = {k: (cpu1[k] - cpu0[k]) / ((t1 - t0) / 1e9) for k in pids}
     records = np.load(tmp / "controller.npz")
+    if records["arrivals"].size == 0:
+        raise RuntimeError("the controller probe recorded no contact state (is "
+                           f"WholeBodyControllerNode still calling {PROBED_METHODS[0]}?)")
     report(args, sent, records, (t0, t1), cpu, machine1.busy_cores_since(machine0))
 
 
