@@ -96,7 +96,7 @@ def _board_process(index: int, port: str, layout_file: str, rate: float, stop: A
 
 
 # -- the controller process ---------------------------------------------------------------------
-PROBED_METHODS = ("on_contact", "tick", "destroy_node")
+PROBED_METHODS = ("take_contact", "tick", "destroy_node")
 """The controller node's methods the probe wraps (a renamed one would silently record nothing:
 ``test_bench_scripts.py`` checks they exist)."""
 
@@ -111,9 +111,9 @@ def run_controller_probe(out: str, ros_args: Sequence[str]) -> int:
     commands: list[tuple[int, ...]] = []
 
     class ProbedController(WholeBodyControllerNode):
-        def on_contact(self, link: str, msg: Any) -> None:
+        def take_contact(self, link: str, state: Any) -> None:
             now = time.time_ns()
-            super().on_contact(link, msg)
+            super().take_contact(link, state)
             state = self.contacts.get(link)
             if state is not None:
                 force = round(float(np.linalg.norm(state.force)) * 1e6)  # [µN]

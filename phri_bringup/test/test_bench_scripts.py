@@ -56,7 +56,7 @@ def test_readme_documents_every_bench_script_and_only_existing_ones() -> None:
 
 def test_bench_chain_probe_wraps_methods_the_controller_node_has() -> None:
     """bench_chain.py's controller probe overrides node methods; if one is renamed the probe
-    records nothing and every frame reads as dropped (it happened: _on_contact → on_contact)."""
+    records nothing and every frame reads as dropped (it happened: _on_contact was renamed)."""
     import importlib.util
 
     from wholebody_controller.node import WholeBodyControllerNode

@@ -100,7 +100,7 @@ def msg_to_contact(msg: PointCloud2) -> ContactState:
         values = _STRUCT.unpack(msg.data)
     else:
         values = _generic_values(msg)
-    return _contact_from_values(msg, values)
+    return contact_from_values(msg.header.frame_id, stamp_to_ns(msg.header.stamp), values)
 
 
 def _generic_values(msg: PointCloud2) -> tuple[float | int, ...]:
@@ -116,14 +116,16 @@ def _generic_values(msg: PointCloud2) -> tuple[float | int, ...]:
     return tuple(rec[name].item() for name in CONTACT_FIELDS)
 
 
-def _contact_from_values(msg: PointCloud2, values: tuple[float | int, ...]) -> ContactState:
-    """A :class:`ContactState` from the 15 vector floats, the count and the flag; finite only."""
+def contact_from_values(frame_id: str, stamp_ns: int,
+                        values: tuple[float | int, ...]) -> ContactState:
+    """A :class:`ContactState` from the 15 vector floats, the count and the flag; finite only
+    (also the decoder of :mod:`phri_common.contact_cdr`)."""
     if not math.isfinite(float(sum(values[:15]))) and not all(map(math.isfinite, values[:15])):
         vectors = np.reshape(values[:15], (5, 3))
         bad = [n for n, vec in zip(CONTACT_VECTORS, vectors, strict=True)
                if not np.all(np.isfinite(vec))]
         raise ContactMessageError(
-            f"contact state of {msg.header.frame_id!r}: non-finite {', '.join(bad)}"
+            f"contact state of {frame_id!r}: non-finite {', '.join(bad)}"
         )
-    return ContactState.from_row(msg.header.frame_id, stamp_to_ns(msg.header.stamp),
-                                 bool(values[16]), values[:15], int(values[15]))
+    return ContactState.from_row(frame_id, stamp_ns, bool(values[16]), values[:15],
+                                 int(values[15]))
