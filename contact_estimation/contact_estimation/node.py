@@ -43,7 +43,7 @@ from contact_estimation.estimator import (
     InvalidTaxelData,
 )
 from contact_estimation.markers import MarkerScales, MarkerThrottle, contact_markers
-from phri_common.contact import contact_to_msg
+from phri_common.contact_cdr import contact_to_cdr
 from phri_common.params import ParamSpec, ParamValue
 from phri_common.records import TaxelArray
 from phri_common.ros_main import run_nodes
@@ -216,7 +216,9 @@ class ContactEstimationNode(Node):
             except InvalidTaxelData as err:
                 self._refuse(patch, err)
                 return
-            self._state_pubs[link].publish(contact_to_msg(state))
+            # Serialized here (phri_common.contact_cdr): rclpy's conversion of the message's
+            # 17 PointField objects would cost several times more.
+            self._state_pubs[link].publish(contact_to_cdr(state))
             if self._values["publish_markers"] and self._marker_throttle.due(state):
                 self._marker_pub.publish(
                     MarkerArray(markers=contact_markers(state, self._scales))

@@ -58,9 +58,9 @@ class ContactMessageError(CloudFormatError):
     """A message that claims to be a contact state is malformed or holds non-finite values."""
 
 
-def contact_to_msg(state: ContactState) -> PointCloud2:
-    """Encode a :class:`ContactState` as a one-point PointCloud2 (≈ 10 µs: no numpy)."""
-    data = _PACK(
+def contact_data(state: ContactState) -> bytes:
+    """The one point's bytes of a contact state message (layout in the module docstring)."""
+    return _PACK(
         *state.center.tolist(),
         *state.force.tolist(),
         *state.torque.tolist(),
@@ -69,6 +69,11 @@ def contact_to_msg(state: ContactState) -> PointCloud2:
         state.taxel_count,
         1 if state.in_contact else 0,
     )
+
+
+def contact_to_msg(state: ContactState) -> PointCloud2:
+    """Encode a :class:`ContactState` as a one-point PointCloud2 (≈ 10 µs: no numpy)."""
+    data = contact_data(state)
     msg = PointCloud2(
         header=Header(stamp=ns_to_stamp(state.stamp_ns), frame_id=state.link),
         height=1,

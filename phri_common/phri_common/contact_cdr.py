@@ -14,7 +14,9 @@ header ``00 01 00 00``, then ``header.stamp`` (int32 sec, uint32 nanosec), ``hea
 (uint32 length including the NUL, the bytes, the NUL), padding to 4, then height, width, the
 fields, is_bigendian, point_step, row_step and the data length, which for phri's layout are one
 fixed byte sequence (:data:`TEMPLATE`) except for padding bytes, whose value is unspecified
-(:data:`MASK` leaves them out), then the 125 data bytes.
+(:data:`MASK` leaves them out), then the 125 data bytes and is_dense.
+:func:`contact_to_cdr` writes the same bytes (padding zero) for a publisher's ``publish(bytes)``:
+the estimator's side of the same saving.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ import struct
 import numpy as np
 from sensor_msgs.msg import PointField
 
-from phri_common.contact import _FIELDS, _STRUCT, contact_from_values
+from phri_common.contact import _FIELDS, _STRUCT, contact_data, contact_from_values
 from phri_common.records import ContactState
 from phri_common.stamps import NS_PER_S
 
@@ -87,3 +89,15 @@ def contact_from_cdr(data: bytes) -> ContactState | None:
     frame_id = data[16 : 16 + length - 1].decode("utf-8", errors="replace")
     return contact_from_values(frame_id, sec * NS_PER_S + nanosec,
                                _STRUCT.unpack_from(data, end))
+
+
+def contact_to_cdr(state: ContactState) -> bytes:
+    """The serialized PointCloud2 of :func:`phri_common.contact.contact_to_msg` (``stamp_ns``
+    ≥ 0), ready for ``Publisher.publish``."""
+    if state.stamp_ns < 0:
+        raise ValueError(f"time stamp must be non-negative, got {state.stamp_ns} ns")
+    sec, nanosec = divmod(state.stamp_ns, NS_PER_S)
+    name = state.link.encode() + b"\x00"
+    head = b"\x00\x01\x00\x00" + _HEADER.pack(sec, nanosec, len(name)) + name
+    head += b"\x00" * (-(len(head) - 4) % 4)
+    return head + TEMPLATE + contact_data(state) + b"\x01"  # is_dense

@@ -18,7 +18,7 @@ from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import PointCloud2, PointField
 
 from phri_common.contact import ContactMessageError, contact_to_msg, msg_to_contact
-from phri_common.contact_cdr import contact_from_cdr
+from phri_common.contact_cdr import contact_from_cdr, contact_to_cdr
 from phri_common.records import ContactState
 
 finite = st.floats(-1e6, 1e6, allow_nan=False)
@@ -93,3 +93,19 @@ def test_not_cdr_little_endian_is_declined() -> None:
     data[1] = 0  # big-endian CDR encapsulation
     assert contact_from_cdr(bytes(data)) is None
     assert contact_from_cdr(b"") is None
+
+
+@settings(max_examples=100, deadline=None, derandomize=True)
+@given(link=st.text(st.characters(min_codepoint=33, max_codepoint=0x2FF), min_size=1,
+                    max_size=23),
+       stamp=st.integers(0, 2**62), touched=st.booleans(), count=st.integers(0, 2**32 - 1),
+       vectors=st.tuples(vector, vector, vector, vector, vector))
+def test_encoder_writes_what_rclpy_reads_as_contact_to_msg(link: str, stamp: int,
+                                                            touched: bool, count: int,
+                                                            vectors: tuple) -> None:
+    state = ContactState(link, stamp, touched, *vectors, taxel_count=count) if touched \
+        else ContactState.no_contact(link, stamp)
+    msg = deserialize_message(contact_to_cdr(state), PointCloud2)
+    reference = contact_to_msg(state)
+    assert msg == reference  # every field of the message, header and layout included
+    assert msg_to_contact(msg) == state
