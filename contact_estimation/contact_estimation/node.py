@@ -30,6 +30,7 @@ from typing import Any
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import PointCloud2
 from visualization_msgs.msg import MarkerArray
 
@@ -49,6 +50,7 @@ from phri_common.records import TaxelArray
 from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
 from phri_common.taxels import TaxelMessageError, msg_to_taxels
+from phri_common.taxels_cdr import taxels_from_cdr
 from phri_description.description import SKIN_LINKS, SKIN_PATCHES
 
 DEFAULT_PATCHES = list(SKIN_PATCHES)
@@ -153,9 +155,12 @@ class ContactEstimationNode(Node):
         }
         self._marker_pub = self.create_publisher(MarkerArray, "contacts/markers", 10)
         self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        # raw=True: the serialized bytes, read as views without rclpy's message objects
+        # (phri_common.taxels_cdr; other layouts take the full path of _on_taxels).
         self._subs = [
             self.create_subscription(
-                PointCloud2, f"skin/{patch}/taxels", partial(self._on_taxels, patch), SENSOR_QOS
+                PointCloud2, f"skin/{patch}/taxels", partial(self._on_taxel_bytes, patch),
+                SENSOR_QOS, raw=True,
             )
             for patch in patches
             if self._values["subscribe_taxels"]
@@ -184,6 +189,19 @@ class ContactEstimationNode(Node):
             self._diag_timer.timer_period_ns = int(period * 1e9)
         self._marker_throttle.set_rate(float(values["marker_rate_hz"]))
         self._values = values
+
+    def _on_taxel_bytes(self, patch: str, data: bytes) -> None:
+        try:
+            taxels = taxels_from_cdr(data)
+        except ValueError as err:  # e.g. an empty cloud, refused as msg_to_taxels would
+            with self._lock:
+                self._received[patch] += 1
+                self._refuse(patch, err)
+            return
+        if taxels is None:  # not phri's own layout: the reference decoder
+            self._on_taxels(patch, deserialize_message(data, PointCloud2))
+        else:
+            self.on_frame(patch, taxels)
 
     def _on_taxels(self, patch: str, msg: PointCloud2) -> None:
         try:

@@ -24,6 +24,7 @@ from __future__ import annotations
 import struct
 
 import numpy as np
+from numpy.typing import NDArray
 from sensor_msgs.msg import PointField
 
 from phri_common.contact import _FIELDS, _STRUCT, contact_data, contact_from_values
@@ -35,8 +36,8 @@ _CDR_LE = b"\x00\x01"
 
 
 def layout_template(fields: tuple[PointField, ...] | list[PointField],
-                    point_size: int) -> tuple[bytes, bytes]:
-    """CDR bytes of a one-point cloud's fixed part (height … data length) and their mask
+                    point_size: int, width: int = 1) -> tuple[bytes, bytes]:
+    """CDR bytes of a one-row cloud's fixed part (height … data length) and their mask
     (0x00 at padding bytes, 0xff elsewhere), starting at a 4-aligned offset."""
     out, mask = bytearray(), bytearray()
 
@@ -47,7 +48,7 @@ def layout_template(fields: tuple[PointField, ...] | list[PointField],
     def align4() -> None:
         put(b"\x00" * (-len(out) % 4), meaningful=False)
 
-    put(struct.pack("<III", 1, 1, len(fields)))  # height, width, field count
+    put(struct.pack("<III", 1, width, len(fields)))  # height, width, field count
     for f in fields:
         name = f.name.encode() + b"\x00"
         put(struct.pack("<I", len(name)) + name)
@@ -57,7 +58,8 @@ def layout_template(fields: tuple[PointField, ...] | list[PointField],
         put(struct.pack("<I", f.count))
     put(b"\x00")  # is_bigendian
     align4()
-    put(struct.pack("<III", point_size, point_size, point_size))  # point/row step, data length
+    row = point_size * width
+    put(struct.pack("<III", point_size, row, row))  # point step, row step, data length
     return bytes(out), bytes(mask)
 
 
@@ -67,28 +69,43 @@ _MASK = np.frombuffer(MASK, dtype=np.uint8)
 _HEADER = struct.Struct("<iII")  # stamp sec, nanosec, frame_id length
 
 
+def cloud_header(data: bytes) -> tuple[str, int, int] | None:
+    """``(frame_id, stamp [ns], offset of height)`` of a serialized little-endian
+    PointCloud2, or ``None`` if it is not one (or too short to tell)."""
+    if data[:2] != _CDR_LE or len(data) < 16:
+        return None
+    sec, nanosec, length = _HEADER.unpack_from(data, 4)
+    start = 16 + length  # body offset 12 + length, body starting after the 4-byte header
+    if length == 0 or len(data) < start or data[start - 1] != 0:
+        return None
+    frame_id = data[16 : 16 + length - 1].decode("utf-8", errors="replace")
+    return frame_id, sec * NS_PER_S + nanosec, start + (-(start - 4) % 4)
+
+
+def matches(data: bytes, start: int, template: tuple[NDArray[np.uint8], NDArray[np.uint8]],
+            ) -> bool:
+    """Whether ``data`` holds ``template`` (bytes, mask) at ``start``, padding aside."""
+    fixed, mask = template
+    if len(data) < start + fixed.size:
+        return False
+    found = np.frombuffer(data, dtype=np.uint8, count=fixed.size, offset=start)
+    return bool(np.array_equal(found & mask, fixed))
+
+
 def contact_from_cdr(data: bytes) -> ContactState | None:
     """The contact state in a serialized PointCloud2 of phri's own layout, else ``None``.
 
     Raises:
         ContactMessageError: phri's layout holding non-finite values (as msg_to_contact).
     """
-    if data[:2] != _CDR_LE or len(data) < 16:
+    header = cloud_header(data)
+    if header is None:
         return None
-    sec, nanosec, length = _HEADER.unpack_from(data, 4)
-    start = 16 + length  # body offset 12 + length, body starting after the 4-byte header
-    if length == 0 or data[start - 1] != 0:
-        return None
-    start += -(start - 4) % 4
+    frame_id, stamp_ns, start = header
     end = start + len(TEMPLATE)
-    if len(data) < end + _STRUCT.size:
+    if len(data) < end + _STRUCT.size or not matches(data, start, (_TEMPLATE, _MASK)):
         return None
-    fixed = np.frombuffer(data, dtype=np.uint8, count=len(TEMPLATE), offset=start)
-    if not np.array_equal(fixed & _MASK, _TEMPLATE):
-        return None
-    frame_id = data[16 : 16 + length - 1].decode("utf-8", errors="replace")
-    return contact_from_values(frame_id, sec * NS_PER_S + nanosec,
-                               _STRUCT.unpack_from(data, end))
+    return contact_from_values(frame_id, stamp_ns, _STRUCT.unpack_from(data, end))
 
 
 def contact_to_cdr(state: ContactState) -> bytes:
