@@ -128,9 +128,13 @@ def test_torque_limit_clamps_only_the_limited_axis() -> None:
     forces = [30.0, 10.0]  # unlimited τ_z = −(0.2 · 40 / 2) = −4 N·m
     free = estimate_contact("link", taxels(positions, normals, forces), NO_LIMIT)
     np.testing.assert_allclose(free.torque[2], -4.0)
-    limited = estimate_contact("link", taxels(positions, normals, forces), EstimatorConfig())
+    z_limit = EstimatorConfig(torque_limit=(math.inf, math.inf, 1.2))
+    limited = estimate_contact("link", taxels(positions, normals, forces), z_limit)
     np.testing.assert_allclose(limited.torque, [0.0, 0.0, -1.2], atol=1e-12)
     np.testing.assert_allclose(limited.force, free.force)
+    # The paper's default limits τ_y (τ(2), 1-based): this τ_z passes unclamped.
+    default = estimate_contact("link", taxels(positions, normals, forces), EstimatorConfig())
+    np.testing.assert_allclose(default.torque, free.torque, atol=1e-12)
 
 
 @pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])

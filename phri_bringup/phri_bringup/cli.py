@@ -6,11 +6,13 @@
     phri sim --scenario centring --short --no-video
     phri sim --scenario waltz --foxglove          # live view on ws://localhost:8765
     phri sim --scenario waltz --fault skin_blind --fault-time 5   # rehearse a sensor fault
+    phri followability [--short] --out runs/followability   # the followability map
     phri plot runs/waltz                          # panels again from the recording
     phri video runs/waltz                         # video again from the recording
     phri params --check | --write                 # parameter files vs the paper's values
     phri graph sim|real                           # the node graph the launch files start
     phri layouts DIR                              # nominal skin layout files for real.launch.py
+    phri paper-report --page docs/paper_vs_phri.md   # Figs 6–8 panel by panel + paper vs phri
 
 Exit codes: 0 done, 1 run failed, 2 bad arguments or parameters, 130 stopped by Ctrl-C/SIGTERM
 (the robot was sent zero velocity and the recording was closed either way).
@@ -61,6 +63,13 @@ def _parser() -> argparse.ArgumentParser:
     sim.add_argument("--fault", choices=FAULT_CHOICES, default=None, help=FAULT_HELP)
     sim.add_argument("--fault-time", type=float, default=5.0, metavar="T",
                      help="sim time [s] the fault starts (default 5)")
+    sim.add_argument("--fidelity", choices=("fast", "paper"), default="fast",
+                     help="fast: 5 ms physics, skin sampled at 100 Hz (default); paper: the "
+                          "paper's 2 ms physics and 500 Hz skin (docs/phri_sim.md)")
+    sim.add_argument("--skin-driver", action="store_true",
+                     help="the real skin driver in the loop: the skin goes out as serial "
+                          "protocol frames of raw counts through skin_driver's calibration, "
+                          "tare and moving average")
     sim.add_argument("--params", default=None,
                      help="parameter file instead of config/<scenario>.yaml")
     sim.add_argument("--record", default=None, metavar="DIR",
@@ -80,6 +89,7 @@ def _parser() -> argparse.ArgumentParser:
     sim.add_argument("--realtime", type=float, default=None, metavar="FACTOR",
                      help="pace the run to FACTOR × real time (default 1 with --foxglove, "
                           "else as fast as possible)")
+    _following_arguments(sub, sim)
 
     plot = sub.add_parser("plot", help="figure panels (PNG) and key numbers from a recording")
     plot.add_argument("run", help="run directory, recording directory or .mcap file")
@@ -102,16 +112,43 @@ def _parser() -> argparse.ArgumentParser:
     graph.add_argument("which", choices=("sim", "real"), nargs="?", default="sim")
     graph.add_argument("--scenario", default="waltz")
 
+    report = sub.add_parser("paper-report", help="run centring, sliding and whole_body; draw "
+                            "Figs 6–8 panel by panel; write the paper-vs-phri page")
+    report.add_argument("--out", default="runs/paper", help="directory for the figure pages "
+                        "(default runs/paper)")
+    report.add_argument("--seed", type=int, default=0, help="skin noise seed (default 0)")
+    report.add_argument("--page", default=None, help="markdown page to write (default "
+                        "OUT/paper_vs_phri.md; the repository's is docs/paper_vs_phri.md)")
+
     layouts = sub.add_parser("layouts", help="write nominal skin layout files (real robot)")
     layouts.add_argument("directory")
     return parser
+
+
+def _following_arguments(sub: Any, sim: argparse.ArgumentParser) -> None:
+    """``phri sim --baseline / --no-baseline`` and the ``phri followability`` sub-command."""
+    sim.add_argument("--baseline", dest="baseline", action="store_true", default=None,
+                     help="also run the scenario with a motionless robot (zero commands) and "
+                          "print its following metrics beside the run's (default: waltz only)")
+    sim.add_argument("--no-baseline", dest="baseline", action="store_false",
+                     help="no motionless baseline")
+    follow = sub.add_parser("followability", help="the followability map: fastest lead "
+                            "followed per direction and turn (polar PNG + JSON)")
+    follow.add_argument("--out", default="runs/followability", help="output directory")
+    follow.add_argument("--short", action="store_true",
+                        help="CI form: two speeds per direction, 0.15 m / 30° leads")
+    follow.add_argument("--seed", type=int, default=0, help="skin noise seed")
+    follow.add_argument("--motionless", action="store_true",
+                        help="the map of a motionless robot (zero-command stub)")
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point ``phri``."""
     args = _parser().parse_args(argv)
     handler = {"sim": cmd_sim, "plot": cmd_plot, "video": cmd_video, "params": cmd_params,
-               "graph": cmd_graph, "layouts": cmd_layouts}[args.command]
+               "graph": cmd_graph, "layouts": cmd_layouts,
+               "followability": cmd_followability,
+               "paper-report": cmd_paper_report}[args.command]
     try:
         code = handler(args)
     except (ValueError, FileNotFoundError) as err:
@@ -160,11 +197,14 @@ def cmd_sim(args: argparse.Namespace) -> int:
     previous = {sig: signal.signal(sig, stop.set) for sig in (signal.SIGINT, signal.SIGTERM)}
     start = time.perf_counter()
     _log(f"scenario {name}: running lock-step (Ctrl-C stops cleanly) → {out}")
+    runs: list[Any] = []
     try:
         result = run_session(name, sinks=sinks, params_file=args.params, duration=args.duration,
                              short=args.short, seed=args.seed, pace=pace,
                              progress=_progress_printer(start), stop=stop,
-                             fault=args.fault or "", fault_time=args.fault_time)
+                             fault=args.fault or "", fault_time=args.fault_time,
+                             inspect=runs.append, fidelity=args.fidelity,
+                             skin_driver=args.skin_driver)
     except Exception as err:
         _log(f"run failed: {type(err).__name__}: {err}")
         return 2 if isinstance(err, ValueError) else 1
@@ -184,6 +224,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
     metrics["zero_velocity_at_exit"] = result.zero_at_exit
     metrics["seed"] = args.seed
     summary: dict[str, Any] = {"run_wall_time": run_wall}
+    _following(args, name, metrics, runs, out)
     if record_dir is not None and not args.no_plots:
         from phri_bringup.plots import make_plots
 
@@ -204,6 +245,59 @@ def cmd_sim(args: argparse.Namespace) -> int:
                                       encoding="utf-8")
     total = time.perf_counter() - start
     _log(f"metrics: {out / 'metrics.json'}; total wall time {total:.0f} s")
+    return 0
+
+
+def _following(args: argparse.Namespace, name: str, metrics: dict[str, Any], runs: list[Any],
+               out: Path) -> None:
+    """For a scenario with following metrics (the waltz): the motionless baseline (unless
+    ``--no-baseline``) into ``metrics['motionless']``, the side-by-side table, and
+    ``plots/following.png``."""
+    from phri_bringup.following_report import plot_following, run_motionless, side_by_side
+
+    if "following" not in metrics:
+        if args.baseline:
+            _log(f"--baseline: scenario {name} has no following metrics; no baseline run")
+        return
+    series = runs[0].metrics.following_series()
+    still, still_series = None, None
+    if args.baseline is not False:
+        _log("motionless baseline: the same scenario with zero commands")
+        still, still_series = run_motionless(name, duration=args.duration, short=args.short,
+                                             seed=args.seed)
+        metrics["motionless"] = still
+    for line in side_by_side(metrics["following"],
+                             None if still is None else still.get("following")):
+        _log(line)
+    if not args.no_plots and series is not None:
+        path = plot_following(out / "plots" / "following.png", series, metrics["following"],
+                              still_series)
+        _log(f"following plot: {path}")
+
+
+def cmd_followability(args: argparse.Namespace) -> int:
+    """``phri followability``: the map (polar PNG + JSON)."""
+    from phri_bringup.following_report import map_lines, plot_map
+    from phri_sim.followability import FULL_FORM, SHORT_FORM, run_map
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    start = time.perf_counter()
+
+    def report(lead: Any, m: dict[str, Any]) -> None:
+        f = m["following"]
+        _log(f"{lead.name}: band {100 * f['band_share']:.0f} %, drift "
+             f"{100 * f['position_drift_max']:.1f} cm / {f['heading_drift_max_deg']:.1f}°, "
+             f"pass {f['pass']['all']}  (wall {time.perf_counter() - start:.0f} s)")
+
+    result = run_map(SHORT_FORM if args.short else FULL_FORM, seed=args.seed,
+                     controller="stub" if args.motionless else "node", progress=report)
+    (out / "followability.json").write_text(json.dumps(result, indent=2) + "\n",
+                                            encoding="utf-8")
+    plot_map(out / "followability.png", result)
+    for line in map_lines(result):
+        _log(line)
+    _log(f"map: {out / 'followability.json'}, {out / 'followability.png'}")
     return 0
 
 
@@ -237,6 +331,10 @@ def cmd_plot(args: argparse.Namespace) -> int:
         scenario = json.loads(metrics.read_text(encoding="utf-8")).get("scenario")
     out = Path(args.out) if args.out else (run if run.is_dir() else run.parent) / "plots"
     files, numbers = make_plots(run, out, scenario=scenario)
+    if numbers.get("scenario") == "waltz":
+        from phri_bringup.following_report import replot_following
+
+        files.append(replot_following(run, out / "following.png"))
     for f in files:
         print(f)
     print(json.dumps(numbers, indent=2))
@@ -299,5 +397,35 @@ def cmd_layouts(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_paper_report(args: argparse.Namespace) -> int:
+    """``phri paper-report``: Figs 6–8 pages and the paper-vs-phri page, in an isolated ROS
+    domain (an in-process run must not hear other ROS processes on the machine)."""
+    import rclpy
+    from rclpy.context import Context
+
+    from phri_bringup.paper_figures import paper_report
+
+    out = Path(args.out)
+    page = Path(args.page) if args.page else out / "paper_vs_phri.md"
+    domain = 1 + os.getpid() % 100
+    os.environ["ROS_DOMAIN_ID"] = str(domain)
+    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    context = Context()
+    rclpy.init(context=context, domain_id=domain)
+    try:
+        files, text, checks = paper_report(out, seed=args.seed, context=context)
+    finally:
+        context.try_shutdown()
+    page.parent.mkdir(parents=True, exist_ok=True)
+    page.write_text(text, encoding="utf-8")
+    for f in [*files, page]:
+        print(f)
+    verdicts = [c.verdict for c in checks]
+    _log(f"{verdicts.count('yes')} reproduced, {verdicts.count('partly')} partly, "
+         f"{verdicts.count('no')} not, {verdicts.count('info')} informational")
+    return 0
+
+
 if __name__ == "__main__":
     main()
+

@@ -16,6 +16,7 @@ codecs) into numpy series;
 | ``base_velocity.png`` | base twist commanded (/cmd_vel) and measured (/odom) (Fig. 8) |
 | ``waltz_path.png`` | waltz only: the person's torso and the robot base in the plane (Fig. 1) |
 | ``waltz_contact_force.png`` | waltz only: waist force on the left forearm vs the desired 10 N |
+| ``fig6_contact_centring.png`` … | the paper's Fig. 6 / 7 / 8 page (:mod:`.paper_figures`) |
 """
 
 from __future__ import annotations
@@ -69,6 +70,9 @@ class RunData:
     true_force: dict[str, Series] = field(default_factory=dict)
     true_centre: dict[str, Series] = field(default_factory=dict)
     psi: dict[str, Series] = field(default_factory=dict)
+    track_force: dict[str, Series] = field(default_factory=dict)
+    region: dict[str, Series] = field(default_factory=dict)
+    """Ω_i per link: lower then upper corner (6) [m]."""
     joint_names: list[str] = field(default_factory=list)
     joint_velocity: Series = field(default_factory=lambda: Series.of([], 12))
     cmd_vel: Series = field(default_factory=lambda: Series.of([], 3))
@@ -104,6 +108,8 @@ def read_run(path: str | Path) -> RunData:
         data.true_force[link] = Series.of(rows["true_force/" + link], 3)
         data.true_centre[link] = Series.of(rows["true_centre/" + link], 3)
         data.psi[link] = Series.of(rows["psi/" + link], 1)
+        data.track_force[link] = Series.of(rows["track/" + link], 3)
+        data.region[link] = Series.of(rows["region/" + link], 6)
     data.joint_velocity = Series.of(rows["qd"], 12)
     data.cmd_vel = Series.of(rows["cmd_vel"], 3)
     data.odom = Series.of(rows["odom"], 6)
@@ -127,8 +133,11 @@ def _add_sample(topic: str, msg: Any, t: float, rows: Rows, data: RunData) -> No
         rows["torque/" + link].append((t, list(c.torque)))
         rows["centre/" + link].append((t, list(c.center)))
         rows["in_contact/" + link].append((t, [float(c.in_contact)]))
+        rows["region/" + link].append((t, [*c.region_min, *c.region_max]))
     elif topic.startswith(STATE_PREFIX):
-        rows["psi/" + topic[len(STATE_PREFIX):]].append((t, [msg_to_task_state(msg)["psi"]]))
+        state, link = msg_to_task_state(msg), topic[len(STATE_PREFIX):]
+        rows["psi/" + link].append((t, [state["psi"]]))
+        rows["track/" + link].append((t, [state[f"track_force_{a}"] for a in "xyz"]))
     elif topic.endswith("/wrench"):
         f = msg.wrench.force
         rows["true_force/" + topic.split("/")[3]].append((t, [f.x, f.y, f.z]))
@@ -203,7 +212,8 @@ def _save(fig: Any, path: Path) -> Path:
 def make_plots(recording: str | Path, out_dir: str | Path, scenario: str | None = None
                ) -> tuple[list[Path], dict[str, Any]]:
     """Draw every panel of a recording into ``out_dir``; return the files and key numbers.
-    ``scenario`` ('waltz' adds the waltz panels) defaults to the one the recording shows (a
+    ``scenario`` ('waltz' adds the waltz panels; centring, sliding, whole_body the paper's
+    page) defaults to the one the recording shows (a
     recording whose left forearm is pushed for most of the run by the torso is a waltz)."""
     data = read_run(recording)
     out = Path(out_dir)
@@ -217,12 +227,18 @@ def make_plots(recording: str | Path, out_dir: str | Path, scenario: str | None 
             and share > 0.2 else ""
     if scenario == "waltz":
         files += _waltz_panels(data, out, numbers)
+    if scenario in PAPER_PAGES:  # the paper's figure, panel by panel (paper_figures.py)
+        from phri_bringup.paper_figures import figure_page, series_from_run
+
+        files.append(figure_page(scenario, series_from_run(data, scenario), out))
     numbers["scenario"] = scenario
     (out / "plots.json").write_text(json.dumps(numbers, indent=2) + "\n", encoding="utf-8")
     return files, numbers
 
 
 AXES_XYZ = ("x", "y", "z")
+PAPER_PAGES = ("centring", "sliding", "whole_body")
+"""Scenarios whose recordings also get the paper's composed figure page (Figs 6, 7, 8)."""
 
 
 def _force_panel(data: RunData, out: Path) -> Path:

@@ -111,6 +111,8 @@ def run_session(
     inspect: Callable[[Any], None] | None = None,
     fault: str = "",
     fault_time: float = 5.0,
+    fidelity: str = "fast",
+    skin_driver: bool = False,
 ) -> SessionResult:
     """Run ``scenario`` (any accepted spelling) lock-step through the real nodes.
 
@@ -126,6 +128,8 @@ def run_session(
         inspect: called with the :class:`~phri_sim.runner.ScenarioRun` before it runs (tests).
         fault, fault_time: sensor fault to inject and its start [s] (:mod:`phri_sim.faults`;
             '' = none).
+        fidelity, skin_driver: time resolution and the skin driver in the loop (see
+            :class:`phri_sim.runner.ScenarioRun`).
     """
     from phri_sim.runner import ScenarioRun
 
@@ -161,7 +165,8 @@ def run_session(
         with _scenario_parameters(name, sections):
             run = ScenarioRun(name, context=context, duration=duration, short=short, seed=seed,
                               recorder=make_observer, progress=on_progress, fault=fault,
-                              fault_time=fault_time)
+                              fault_time=fault_time, fidelity=fidelity,
+                              skin_driver=skin_driver)
         if inspect is not None:
             inspect(run)
         try:

@@ -41,7 +41,8 @@ def test_phri_sim_writes_recording_plots_video_and_metrics(tmp_path: Path) -> No
     assert "zero velocity published at exit: yes" in proc.stderr
     assert "real-time factor" in proc.stderr
     assert (out / "recording" / "metadata.yaml").is_file()
-    assert len(list((out / "plots").glob("*.png"))) == 6
+    assert len(list((out / "plots").glob("*.png"))) == 7  # 6 panels + the Fig. 8 page
+    assert (out / "plots" / "fig8_wholebody.png").is_file()
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["scenario"] == "whole_body" and metrics["zero_velocity_at_exit"] is True
     video = out / "wholebody.mp4"

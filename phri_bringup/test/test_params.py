@@ -44,7 +44,7 @@ def test_paper_values_in_the_files() -> None:
             assert ctl[f"{link}.damping"] == damping
             assert ctl[f"{link}.stiffness"] == stiffness
         est = params.load(config_file(stem))[ESTIMATION]
-        assert est["torque_limit"][2] == 1.2 and math.isinf(est["torque_limit"][0])
+        assert est["torque_limit"][1] == 1.2 and math.isinf(est["torque_limit"][0])
     waltz = params.load(config_file("waltz"))[CONTROLLER]
     assert waltz["q_dance_enabled"] is True and waltz["q_dance_range"] == 0.1
     assert waltz["left_forearm_link.priority_lock"] == 1.0

@@ -154,7 +154,7 @@ def test_push_moves_the_robot_and_plots_show_it(recorded_run: Any, tmp_path: Pat
     files, numbers = make_plots(directory, tmp_path / "plots", scenario="centring")
     names = {f.name for f in files}
     assert {"contact_force.png", "contact_torque.png", "contact_centre.png", "priority_psi.png",
-            "arm_joint_velocities.png", "base_velocity.png"} == names
+            "arm_joint_velocities.png", "base_velocity.png", "fig6_contact_centring.png"} == names
     for f in files:
         assert f.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and f.stat().st_size > 10_000
     assert numbers["links"][link]["peak_force"] == pytest.approx(force.max())

@@ -86,9 +86,11 @@ SKIN_RATE_HZ = 500.0
 
 CENTRING = Admittance(six(0.5), six(40.0), six(0.0))
 """Contact centring (VI-A.1, Fig. 6): Λ = 0.5 I, D = 40 I, K = 0; also the controller's default."""
-TORQUE_LIMIT: tuple[float, float, float] = (math.inf, math.inf, 1.2)
-"""Per-axis bound on the estimated torque |τ| in the link frame [N·m] (VI-A.1: τ(2) ≤ 1.2, the
-third component; the other two unbounded)."""
+TORQUE_LIMIT: tuple[float, float, float] = (math.inf, 1.2, math.inf)
+"""Per-axis bound on the estimated torque |τ| in the link frame [N·m] (VI-A.1: τ(2) ≤ 1.2). We
+read "(2)" 1-based, as the paper's MATLAB-style indices: the second component, τ_y, the axis the
+two-sided press of Fig. 6 loads (link x along the forearm, presses along ±z) and the one Fig. 6b
+shows clamped; the other two unbounded."""
 TRACKING = Admittance(six(0.5), (40.0, 40.0, 500.0, 40.0, 40.0, 40.0), six(0.0))
 """Contact-change tracking (VI-A.2, Fig. 7): Λ = 0.5 I, D = diag(40, 40, 500, 40, 40, 40), K = 0."""
 REGION_MARGIN = 0.01

@@ -32,8 +32,8 @@ def test_section_vi_opening_and_skin_rate() -> None:
 
 def test_basic_experiments() -> None:
     assert _diagonals(paper.CENTRING) == ((0.5,) * 6, (40.0,) * 6, (0.0,) * 6)
-    assert paper.TORQUE_LIMIT[2] == 1.2
-    assert math.isinf(paper.TORQUE_LIMIT[0]) and math.isinf(paper.TORQUE_LIMIT[1])
+    assert paper.TORQUE_LIMIT[1] == 1.2  # τ(2), 1-based: the axis Fig. 6b shows clamped
+    assert math.isinf(paper.TORQUE_LIMIT[0]) and math.isinf(paper.TORQUE_LIMIT[2])
     assert _diagonals(paper.TRACKING) == (
         (0.5,) * 6, (40.0, 40.0, 500.0, 40.0, 40.0, 40.0), (0.0,) * 6)
     assert paper.REGION_MARGIN == 0.01

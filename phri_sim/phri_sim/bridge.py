@@ -47,6 +47,7 @@ from phri_sim.faults import DEFAULT_FAULT_TIME, FAULT_KINDS, FaultSpec, SensorFa
 from phri_sim.scenarios import Q_HOME, SCENARIOS, Script, start_scenario
 from phri_sim.sim import ARM_JOINTS, CommandError, SimConfig, Simulation
 from phri_sim.skin import SkinConfig
+from phri_sim.skin_link import SkinLink
 
 PARAMS: list[ParamSpec] = [
     ParamSpec("lockstep", False, "advance only when the owner calls advance() (in-process "
@@ -58,25 +59,40 @@ PARAMS: list[ParamSpec] = [
     ParamSpec("control_period", 0.01, "simulated time per advance / timer tick", unit="s",
               low=0.002, high=0.1, read_only=True),
     ParamSpec("physics_timestep", 0.002, "MuJoCo step; must divide control_period and the "
-              "skin, state and ground-truth periods (the lock-step runner uses 0.005 with its "
-              "100 Hz skin)", unit="s", low=0.0005, high=0.005, read_only=True),
+              "skin, state and ground-truth periods (the lock-step runner's fast fidelity uses "
+              "0.005 with its 100 Hz skin)", unit="s", low=0.0005, high=0.005, read_only=True),
     ParamSpec("real_time_factor", 1.0, "free-running speed relative to the wall clock",
               low=0.01, high=100.0, read_only=True),
     ParamSpec("skin_rate_hz", paper.SKIN_RATE_HZ, "taxel-array publication rate (sim time)",
               unit="Hz",
               low=1.0, high=500.0, read_only=True),
-    ParamSpec("skin_idle_decimation", 1, "publish a patch nobody touches only every N-th skin "
-              "frame (1 = every frame; the lock-step runner uses 10: an untouched patch's frame "
-              "carries only noise below any contact threshold)", low=1, high=1000,
-              read_only=True),
+    ParamSpec("skin_idle_decimation", 1, "read a patch nobody touches only once N skin periods "
+              "have passed since its last reading (1 = every sample; the lock-step runner: "
+              "every 100 ms, as an untouched patch's frame carries only noise below any "
+              "contact threshold)", low=1, high=1000, read_only=True),
     ParamSpec("state_rate_hz", 100.0, "/joint_states, /odom and /clock rate (sim time)",
               unit="Hz", low=1.0, high=500.0, read_only=True),
     ParamSpec("ground_truth_rate_hz", 100.0, "ground-truth rate (sim time); 0 = off",
               unit="Hz", low=0.0, high=500.0, read_only=True),
     ParamSpec("command_timeout", 0.1, "a command older than this (sim time) reads as zero",
               unit="s", low=0.001, high=10.0, read_only=True),
-    ParamSpec("skin_noise_std", 0.005, "per-taxel Gaussian noise", unit="N", low=0.0,
-              high=10.0, read_only=True),
+    ParamSpec("skin_noise_std", 0.005, "per-taxel Gaussian noise of the sensor model",
+              unit="N", low=0.0, high=10.0, read_only=True),
+    ParamSpec("skin_gain_error_std", 0.05, "per-taxel relative gain error left by the factory "
+              "calibration, standard deviation (sensor model)", low=0.0, high=0.5,
+              read_only=True),
+    ParamSpec("skin_offset_std", 20.0, "per-taxel zero offset, standard deviation (sensor "
+              "model; removed by the driver's tare)", unit="count", low=0.0, high=5000.0,
+              read_only=True),
+    ParamSpec("skin_dead_taxels", 3, "taxels per patch that never respond, at seeded "
+              "positions (sensor model)", low=0, high=1000, read_only=True),
+    ParamSpec("skin_driver", False, "the real skin driver in the loop: each skin sample goes out "
+              "as protocol-v1 frames of raw counts through skin_driver's parser, tare, "
+              "calibration and moving average; off: the sensor model read with a perfect tare",
+              read_only=True),
+    ParamSpec("taxel_publish_rate_hz", 0.0, "largest rate of the taxel arrays (sim time); 0 = "
+              "every skin sample. Samples in between still reach the skin driver's filter",
+              unit="Hz", low=0.0, high=500.0, read_only=True),
     ParamSpec("skin_softness", 0.004, "thickness of the footprint model's compliant layer",
               unit="m", low=1e-4, high=0.05, read_only=True),
     ParamSpec("viewer", False, "open the MuJoCo viewer (needs a display)", read_only=True),
@@ -100,6 +116,21 @@ def _check_divides(step: float, periods: dict[str, float]) -> None:
                 f"parameter '{name}' refused: its period {period:g} s is not a whole number of "
                 f"physics steps (physics_timestep = {step:g} s)"
             )
+
+
+def _publish_steps(rate_hz: float, skin_every: int, dt: float) -> int:
+    """Physics steps between two taxel publications: every skin sample for a rate of 0, else
+    the publication period, which must be a whole number of skin periods (ValueError naming
+    ``taxel_publish_rate_hz`` otherwise)."""
+    if rate_hz <= 0.0:
+        return skin_every
+    steps = max(1, round(1.0 / (rate_hz * dt)))
+    if steps % skin_every:
+        raise ValueError(
+            f"parameter 'taxel_publish_rate_hz' refused value {rate_hz:g}: its period must be a "
+            f"whole number of skin periods ({skin_every * dt:g} s)"
+        )
+    return steps
 
 
 def sensor_faults(values: dict[str, ParamValue], joint_names: tuple[str, ...]) -> SensorFaults:
@@ -170,7 +201,10 @@ class SimBridgeNode(Node):
             )
         config = SimConfig(
             skin=SkinConfig(softness=float(v["skin_softness"]),
-                            noise_std=float(v["skin_noise_std"])),
+                            noise_std=float(v["skin_noise_std"]),
+                            gain_error_std=float(v["skin_gain_error_std"]),
+                            offset_std=float(v["skin_offset_std"]),
+                            dead_taxels=int(v["skin_dead_taxels"])),
             command_timeout=float(v["command_timeout"]),
             seed=int(v["seed"]),
             timestep=float(v["physics_timestep"]),
@@ -180,6 +214,8 @@ class SimBridgeNode(Node):
             "skin_rate_hz": 1.0 / float(v["skin_rate_hz"]),
             "state_rate_hz": 1.0 / float(v["state_rate_hz"]),
         }
+        if float(v["taxel_publish_rate_hz"]) > 0.0:
+            periods["taxel_publish_rate_hz"] = 1.0 / float(v["taxel_publish_rate_hz"])
         if float(v["ground_truth_rate_hz"]) > 0.0:
             periods["ground_truth_rate_hz"] = 1.0 / float(v["ground_truth_rate_hz"])
         _check_divides(float(v["physics_timestep"]), periods)
@@ -194,6 +230,13 @@ class SimBridgeNode(Node):
         self.period = float(v["control_period"])
         self.steps_per_period = max(1, round(self.period / self.sim.dt))
         self._skin_every = max(1, round(1.0 / (float(v["skin_rate_hz"]) * self.sim.dt)))
+        self._publish_every = _publish_steps(float(v["taxel_publish_rate_hz"]), self._skin_every,
+                                             self.sim.dt)
+        self.skin_link: SkinLink | None = None
+        if bool(v["skin_driver"]):
+            self.skin_link = SkinLink(self.sim.skins.sensors)
+            self.skin_link.tare(self._skin_every * self.sim.dt)
+        self._readings: dict[str, np.ndarray] = {}
         self._idle_every = int(v["skin_idle_decimation"])
         self._idle_count = dict.fromkeys(self.sim.patches, 0)
         self._was_touched = dict.fromkeys(self.sim.patches, True)
@@ -283,7 +326,7 @@ class SimBridgeNode(Node):
             self.step_count += 1
             n = self.step_count
             if n % self._skin_every == 0:
-                self.publish_skin()
+                self.sample_skin(publish=n % self._publish_every == 0)
             if self._truth_every and n % self._truth_every == 0:
                 self.publish_ground_truth()
             if n % self._state_every == 0:
@@ -318,32 +361,61 @@ class SimBridgeNode(Node):
         self.joint_pub.publish(joint_state_msg(self.sim.joint_names, positions, qd, stamp))
         self.odom_pub.publish(odometry_msg(q[:3], self.sim.base_twist(), stamp))
 
-    def publish_skin(self, *, force: bool = False) -> None:
-        """One taxel array per patch (frame = the patch's link), noisy, through the sensor
-        faults.
+    def sample_skin(self, *, publish: bool = True) -> None:
+        """One skin sample of every patch due (below); publish the newest reading of each
+        patch sampled since the last publication when ``publish``.
 
-        With ``skin_idle_decimation`` N > 1 a patch nobody touches (and that was untouched in
-        its last published frame) is published only every N-th time; ``force`` publishes every
-        patch without counting as a frame of that schedule (the first scheduled frame after it
-        still carries every patch, for subscribers that joined late). :attr:`published_patches`
-        lists the patches of this call.
+        With the driver in the loop every sample goes through it (its moving average needs
+        them all); without it, a sample that is not published is not computed (nothing would
+        see it). With ``skin_idle_decimation`` N > 1 a patch nobody touches (and that was
+        untouched in its last sample) is read only once N samples have passed since its last
+        reading (so every N skin periods, driver or not).
         """
-        stamp = self.stamp_ns
+        for name in self._idle_count:
+            self._idle_count[name] += 1
+        if self.skin_link is None and not publish:
+            return
         every = self._idle_every
-        self.published_patches = []
+        due: dict[str, np.ndarray] = {}
         for name, clean in self.sim.clean_skin_forces().items():
-            if not force:
-                touched = bool(np.any(clean > 0.0))
-                self._idle_count[name] += 1
-                if not (every <= 1 or touched or self._was_touched[name]
-                        or self._idle_count[name] >= every):
-                    continue
+            touched = bool(np.any(clean > 0.0))
+            if every <= 1 or touched or self._was_touched[name] or self._idle_count[name] >= every:
                 self._idle_count[name] = 0
                 self._was_touched[name] = touched
-            forces = self.faults.taxels(name, self.sim.add_skin_noise(name, clean),
-                                        self.fault_clock)
+                due[name] = clean
+        self._read(due)
+        if publish:
+            self._publish_readings()
+
+    def _read(self, clean: dict[str, np.ndarray]) -> None:
+        """Readings [N] of the patches in ``clean`` (true forces) through the sensor model and,
+        when in the loop, the skin driver, kept until published."""
+        if self.skin_link is None:
+            for name, forces in clean.items():
+                self._readings[name] = self.sim.skin_reading(name, forces)
+            return
+        self._readings.update(self.skin_link.send(clean, self.stamp_ns * 1e-9))
+
+    def publish_skin(self, *, force: bool = False) -> None:
+        """Publish the skin now: every patch sampled at the current state with ``force`` (not
+        counted as a sample of the idle schedule: the first scheduled sample after it still
+        carries every patch, for subscribers that joined late), else one scheduled sample."""
+        if not force:
+            self.sample_skin(publish=True)
+            return
+        self._read(self.sim.clean_skin_forces())
+        self._publish_readings()
+
+    def _publish_readings(self) -> None:
+        """One taxel array per patch with a reading since the last publication (frame = the
+        patch's link), through the sensor faults; :attr:`published_patches` lists them."""
+        stamp = self.stamp_ns
+        self.published_patches = []
+        for name, reading in self._readings.items():
+            forces = self.faults.taxels(name, reading, self.fault_clock)
             self.skin_pubs[name].publish(self.encoders[name].encode(forces, stamp))
             self.published_patches.append(name)
+        self._readings = {}
 
     def publish_ground_truth(self) -> None:
         """True force on each skin link (link frame; zero when untouched), its centre (only

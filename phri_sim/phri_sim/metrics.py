@@ -29,7 +29,11 @@ and :meth:`MetricsRecorder.summary` reduces them to the scenario's JSON metrics:
   t_f on (``AfterFault.summary``, docs/phri_sim.md "Fault injection");
 * ``waltz``: the person's torso path against the robot's base path (planar displacements from
   their starts): RMS error, the lag that best aligns them and the RMS error at that lag; the share
-  of time the waist touches the left forearm (from the first touch on); peak / mean waist force.
+  of time the waist touches the left forearm (from the first touch on); peak / mean waist force;
+* ``following`` (waltz and the followability leads): what the partner feels — drift of the
+  partner's pose in the robot base frame, waist force error and band share, contact losses,
+  accumulated turn, lag, travel, peak force per part and link, the bars
+  (:mod:`phri_sim.following`).
 """
 
 from __future__ import annotations
@@ -43,6 +47,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from phri_common import paper
+from phri_common.planar import yaw_from_quaternion
 from phri_common.records import ContactState
 from phri_sim.body_forces import (
     ForceLimitTracker,
@@ -50,7 +55,8 @@ from phri_sim.body_forces import (
     limit_report,
     part_region,
 )
-from phri_sim.scenarios import WALTZ_LINK
+from phri_sim.following import Bars, FollowingSeries, following_summary
+from phri_sim.scenarios import WALTZ_FORCE, WALTZ_LINK
 from phri_sim.sim import Simulation
 
 FloatArray = NDArray[np.float64]
@@ -150,14 +156,20 @@ class MetricsRecorder:
 
     def __init__(self, kind: str, velocity_limit: float = paper.VELOCITY_LIMIT,
                  position_ranges: FloatArray | None = None,
-                 fault_time: float | None = None) -> None:
+                 fault_time: float | None = None, desired_force: float = WALTZ_FORCE,
+                 bars: Bars | None = None) -> None:
         self.kind = kind
+        self.desired_force = desired_force
+        self.bars = bars or Bars()
         self.velocity_limit = velocity_limit
         self.position_ranges = position_ranges
         self.times: list[float] = []
         self.links: dict[str, _LinkSeries] = {}
         self.base_path: list[FloatArray] = []
         self.torso_path: list[FloatArray] = []
+        self.base_pose: list[FloatArray] = []
+        self.partner_pose: list[FloatArray] = []
+        self.waist_force: list[float] = []
         self.violations = 0
         self.violation_kinds: dict[str, int] = {"joint_limit": 0, "dance_band": 0, "velocity": 0}
         self.max_command = 0.0
@@ -210,7 +222,8 @@ class MetricsRecorder:
             self.violation_kinds["joint_limit"] += int(bad_joint)
             self.violation_kinds["dance_band"] += int(bad_band)
             self.violation_kinds["velocity"] += int(bad_vel)
-        for link, gt in sim.ground_truth().items():
+        truth = sim.ground_truth()
+        for link, gt in truth.items():
             series = self.links.setdefault(link, _LinkSeries())
             touched = gt.in_contact and gt.normal_force > 0.0
             if touched and not (series.touched and series.touched[-1]):
@@ -231,6 +244,12 @@ class MetricsRecorder:
         torso = next((p.name for p in sim.parts if p.name == "person_torso"), None)
         if torso is not None:
             self.torso_path.append(sim.part_pose(torso)[0][:2])
+        lead = truth.get(WALTZ_LINK)  # as sim/contacts/<link>/wrench: ‖f‖
+        self.waist_force.append(0.0 if lead is None else float(np.linalg.norm(lead.force_link)))
+        self.base_pose.append(q[:3].copy())
+        if sim.parts:  # the partner's pose: the first part (torso / pelvis), as sim/person/poses
+            pos, quat = sim.part_pose(sim.parts[0].name)
+            self.partner_pose.append(np.array([pos[0], pos[1], yaw_from_quaternion(*quat)]))
 
     # -- reduction ------------------------------------------------------------------------------
     def _link_summary(self, series: _LinkSeries) -> dict[str, Any]:
@@ -272,7 +291,29 @@ class MetricsRecorder:
             out["fault"] = after
         if self.kind == "waltz":
             out["waltz"] = self._waltz_summary()
+            series = self.following_series()
+            if series is not None:
+                out["following"] = following_summary(series, self.desired_force, self.bars,
+                                                     self._peak_forces())
         return out
+
+    def following_series(self) -> FollowingSeries | None:
+        """The recorded inputs of the ``following`` block (``None`` without a partner or
+        samples)."""
+        if WALTZ_LINK not in self.links or len(self.partner_pose) != len(self.times) or (
+                not self.times):
+            return None
+        force = np.array(self.waist_force)
+        return FollowingSeries(np.array(self.times), np.array(self.base_pose),
+                               np.array(self.partner_pose), force, force > 0.0)
+
+    def _peak_forces(self) -> dict[str, dict[str, float]] | None:
+        """Peak contact force per partner body part and per robot link [N] (every physics
+        step, :mod:`phri_sim.body_forces`)."""
+        if self._reader is None:
+            return None
+        return {"person": {p: self.forces.peak(p) for p in self._reader.parts},
+                "robot": {lk: self.forces.peak(lk) for lk in self._reader.links}}
 
     def _iso_summary(self, tracker: ForceLimitTracker) -> dict[str, Any]:
         """Per person body part and per robot link: peak and sustained force [N] beside the

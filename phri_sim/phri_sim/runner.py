@@ -36,6 +36,7 @@ import math
 import sys
 import time
 from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -55,7 +56,7 @@ from phri_description.description import SKIN_LINKS
 from phri_sim.bridge import SimBridgeNode
 from phri_sim.faults import DEFAULT_FAULT_TIME, FAULT_KINDS
 from phri_sim.metrics import MetricsRecorder
-from phri_sim.scenarios import SCENARIOS, Scenario
+from phri_sim.scenarios import SCENARIOS, WALTZ_FORCE, WALTZ_LINK, Scenario
 
 Recorder = Callable[[Context], Node]
 Progress = Callable[[float, float], None]
@@ -81,6 +82,36 @@ PHYSICS_TIMESTEP = 0.005
 """MuJoCo step of lock-step runs [s]: two steps per control period, every sample of the 100 Hz
 skin on a step (the bridge's own default, 2 ms, serves the 500 Hz skin when free-running). The
 scenario metrics agree with 2 ms runs (docs/phri_sim.md)."""
+
+
+@dataclass(frozen=True)
+class Fidelity:
+    """Time resolution of a lock-step run (``--fidelity``, docs/phri_sim.md).
+
+    Attributes:
+        physics_timestep: MuJoCo step [s].
+        skin_rate_hz: skin sampling rate [Hz] (every sample reaches the skin driver's filter
+            when it is in the loop).
+        taxel_publish_rate_hz: rate of the taxel arrays to contact estimation [Hz] (0 = every
+            sample).
+        skin_idle_decimation: an untouched patch is sampled every N-th time only.
+    """
+
+    physics_timestep: float
+    skin_rate_hz: float
+    taxel_publish_rate_hz: float
+    skin_idle_decimation: int
+
+
+FIDELITIES = {
+    "fast": Fidelity(PHYSICS_TIMESTEP, SKIN_RATE_HZ, 0.0, SKIN_IDLE_DECIMATION),
+    "paper": Fidelity(0.002, paper.SKIN_RATE_HZ, paper.CONTROL_RATE_HZ, 5 * SKIN_IDLE_DECIMATION),
+}
+"""``fast``: 5 ms physics, the skin sampled once per control period (100 Hz). ``paper``: the
+paper's 2 ms physics and 500 Hz skin; contact estimation gets the newest reading once per
+control period (the estimator keeps no state between frames and the controller uses only the
+newest estimate, so the frames in between would change nothing downstream;
+test_skin_loop.py checks it), while the skin driver, when in the loop, filters all of them."""
 
 
 class LockStepError(RuntimeError):
@@ -110,6 +141,11 @@ class ZeroCommandStub(Node):
 
 
 FloatArray = NDArray[np.float64]
+
+
+def _given(value: Any, default: Any) -> Any:
+    """``value`` unless it is None."""
+    return default if value is None else value
 
 
 def _params(values: dict[str, Any]) -> list[Parameter]:
@@ -161,9 +197,11 @@ def _dance_ranges(params: Mapping[str, Any]) -> FloatArray | None:
 def _metrics(scenario: Scenario, sim: Any, fault_time: float | None) -> MetricsRecorder:
     """The run's metrics recorder, watching every physics step of ``sim``."""
     params = scenario.controller_parameters
+    desired = params.get(f"{WALTZ_LINK}.desired_force")
     metrics = MetricsRecorder(
         scenario.metrics, float(params.get("velocity_limit", paper.VELOCITY_LIMIT)),
         _dance_ranges(params), fault_time=fault_time,
+        desired_force=WALTZ_FORCE if desired is None else float(np.linalg.norm(desired)),
     )
     metrics.watch(sim)
     return metrics
@@ -180,9 +218,12 @@ class ScenarioRun:
         duration: float | None = None,
         short: bool = False,
         seed: int = 0,
-        skin_rate_hz: float = SKIN_RATE_HZ,
-        skin_idle_decimation: int = SKIN_IDLE_DECIMATION,
-        physics_timestep: float = PHYSICS_TIMESTEP,
+        fidelity: str = "fast",
+        skin_driver: bool = False,
+        skin_rate_hz: float | None = None,
+        skin_idle_decimation: int | None = None,
+        physics_timestep: float | None = None,
+        taxel_publish_rate_hz: float | None = None,
         controller: str = "node",
         viewer: bool = False,
         recorder: Recorder | None = None,
@@ -198,10 +239,17 @@ class ScenarioRun:
         )
         self.context = context
         self.progress = progress
+        if fidelity not in FIDELITIES:
+            raise ValueError(f"fidelity must be one of {', '.join(FIDELITIES)}, got {fidelity!r}")
+        fid = FIDELITIES[fidelity]
+        self.fidelity, self.skin_driver = fidelity, skin_driver
         self.bridge = SimBridgeNode(context=context, parameter_overrides=_params({
-            "lockstep": True, "scenario": name, "seed": seed, "skin_rate_hz": skin_rate_hz,
-            "viewer": viewer, "skin_idle_decimation": skin_idle_decimation,
-            "physics_timestep": physics_timestep, "fault": fault, "fault_time": float(fault_time),
+            "lockstep": True, "scenario": name, "seed": seed, "viewer": viewer,
+            "skin_rate_hz": _given(skin_rate_hz, fid.skin_rate_hz),
+            "skin_idle_decimation": _given(skin_idle_decimation, fid.skin_idle_decimation),
+            "physics_timestep": _given(physics_timestep, fid.physics_timestep),
+            "taxel_publish_rate_hz": _given(taxel_publish_rate_hz, fid.taxel_publish_rate_hz),
+            "skin_driver": skin_driver, "fault": fault, "fault_time": float(fault_time),
         }))
         self.estimation = _estimation_node(context, sc)
         self.controller = _controller_node(controller, context, sc)
@@ -319,6 +367,8 @@ class ScenarioRun:
             "cpu_time": cpu_time,
             "real_time_factor_cpu": self.bridge.sim.time / max(cpu_time, 1e-9),
             "controller": "stub (zero commands)" if self.is_stub else "wholebody_controller",
+            "fidelity": self.fidelity,
+            "skin_driver": self.skin_driver,
             "commands_refused": self.bridge.commands_refused,
         })
         if self.bridge.faults.spec is not None:
@@ -367,9 +417,14 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--short", action="store_true", help="the shortened CI length")
     parser.add_argument("--duration", type=float, default=None, help="length [s]")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--skin-rate", type=float, default=SKIN_RATE_HZ, help="taxel rate [Hz]")
-    parser.add_argument("--skin-idle-decimation", type=int, default=SKIN_IDLE_DECIMATION,
-                        help="publish an untouched patch every N-th period (1 = always)")
+    parser.add_argument("--fidelity", choices=sorted(FIDELITIES), default="fast",
+                        help="fast: 5 ms physics, 100 Hz skin; paper: 2 ms, 500 Hz")
+    parser.add_argument("--skin-driver", action="store_true",
+                        help="the real skin driver in the loop (protocol frames of raw counts)")
+    parser.add_argument("--skin-rate", type=float, default=None,
+                        help="skin sampling rate [Hz] (default: the fidelity's)")
+    parser.add_argument("--skin-idle-decimation", type=int, default=None,
+                        help="sample an untouched patch every N-th time (1 = always)")
     parser.add_argument("--stub", action="store_true", help="zero-command stub controller")
     parser.add_argument("--viewer", action="store_true", help="MuJoCo viewer (needs a display)")
     parser.add_argument("--out", default=None, help="metrics JSON path")
@@ -385,7 +440,8 @@ def main(argv: list[str] | None = None) -> None:
 
     metrics = run_scenario(
         args.scenario, output=args.out, duration=args.duration, short=args.short,
-        seed=args.seed, skin_rate_hz=args.skin_rate,
+        seed=args.seed, fidelity=args.fidelity, skin_driver=args.skin_driver,
+        skin_rate_hz=args.skin_rate,
         skin_idle_decimation=args.skin_idle_decimation,
         controller="stub" if args.stub else "node", viewer=args.viewer, progress=report,
         fault=args.fault or "", fault_time=args.fault_time,

@@ -15,7 +15,8 @@ Scenarios (``SCENARIOS``):
   then two hands press the same link on opposite sides at both ends (a torque about the centre).
   Λ = 0.5 I, D = 40 I, K = 0; torque limit τ(2) ≤ 1.2 (contact estimation).
 * ``sliding`` (Fig. 7): a hand presses the middle of the left forearm mostly along the link's
-  normal and slides forward and back along the link. Λ = 0.5 I, D = diag(40, 40, 500, 40, 40, 40),
+  normal, then slides forward, holds, slides backward, holds (the robot following brings the
+  contact back toward Ω_d). Λ = 0.5 I, D = diag(40, 40, 500, 40, 40, 40),
   K = 0; desired-region margin 0.01 m.
 * ``whole_body`` (Fig. 8): periodic touches on the three skin links in turn.
   Λ = 0.5 I, D = 60 I, K = 40 I.
@@ -26,8 +27,11 @@ Scenarios (``SCENARIOS``):
   outward), left-forearm priority locked at 1, desired force 10 N to the right (base frame).
   Λ = 0.1 I, D = 200 I, K = 0.
 
-Hands never jump between presses (:func:`hand_schedule`); the sliding hand keeps its press depth
-on the link's current surface.
+The hands of centring, sliding and whole_body are :class:`~phri_sim.hand.ForceHand`: they press
+with a target normal force on the link's current surface, let go for real, never jump, and every
+touch must land on skin (:class:`~phri_sim.hand.TouchOffSkinError` otherwise). Centring, sliding
+and whole_body also set the controller's documented Ω_d deviations (:data:`REGION_SETTINGS`;
+``PARAMETER_SETS[name]["literal"]`` without them).
 
 Table II values (q̇ ∈ [−0.15, 0.15], k_η = 200, b = 4, K_p = 5, ψ_thr = 1e-4, ε = 0.1, h = 0.15,
 100 Hz) are the controller's defaults and are repeated in every parameter set for clarity. Every
@@ -46,7 +50,9 @@ from numpy.typing import NDArray
 
 from phri_common import paper
 from phri_description.description import SKIN_LINKS, robot_description
-from phri_sim.person import HAND_RADIUS, TORSO, WAIST_RADIUS, PartTarget
+from phri_sim.hand import ForceHand, Touch, make_touch
+from phri_sim.person import TORSO, WAIST_RADIUS, PartTarget
+from phri_sim.profiles import minimum_jerk, minimum_jerk_rate
 from phri_sim.sim import Simulation
 
 FloatArray = NDArray[np.float64]
@@ -129,7 +135,7 @@ def start_scenario(sim: Simulation, scenario: Scenario) -> Script:
 
 
 # ---------------------------------------------------------------------------------------------
-# Geometry helpers: where on a patch a hand presses.
+# Geometry helpers: where on a patch a hand presses (the hands themselves: phri_sim.hand).
 # ---------------------------------------------------------------------------------------------
 
 
@@ -151,233 +157,16 @@ def press_geometry(
     return point, normal, rot @ axis
 
 
-def smoothstep(x: float) -> float:
-    """0 → 1 cosine ramp on x ∈ [0, 1] (clamped), zero slope at both ends."""
-    x = min(max(x, 0.0), 1.0)
-    return 0.5 - 0.5 * math.cos(math.pi * x)
-
-
-def smoothstep_rate(x: float, duration: float) -> float:
-    """d/dt of :func:`smoothstep` (x = t / duration) [1/s]."""
-    if not 0.0 < x < 1.0:
-        return 0.0
-    return 0.5 * math.pi * math.sin(math.pi * x) / duration
-
-
-HAND_STIFFNESS = 400.0
-"""Must match :data:`phri_sim.person.LEFT_HAND`'s spring [N/m]: depth = force / stiffness."""
-
-
-def _hand_press(
-    point: FloatArray, normal: FloatArray, force: float, amount: float
-) -> FloatArray:
-    """Hand target for a press of ``force`` [N] scaled by ``amount`` ∈ [0, 1]: from 3 cm off the
-    surface (amount 0) to ``force / K`` inside the touching position (amount 1)."""
-    touching = point + normal * HAND_RADIUS
-    approach = touching + normal * 0.03
-    pressed = touching - normal * (force / HAND_STIFFNESS)
-    return np.asarray(approach + (pressed - approach) * amount)
-
-
 def _parked(part: str, sim: Simulation) -> PartTarget:
     spec = next(p for p in sim.parts if p.name == part)
     return PartTarget(np.array(spec.parking), np.zeros(3))
 
 
-def _press_target(point: FloatArray, normal: FloatArray, force: float, t: float,
-                  t_on: float, t_off: float, ramp: float = 0.5) -> PartTarget:
-    """A press that ramps in at ``t_on`` and out at ``t_off`` (ramp length ``ramp`` [s])."""
-    amount = smoothstep((t - t_on) / ramp) - smoothstep((t - t_off) / ramp)
-    rate = smoothstep_rate((t - t_on) / ramp, ramp) - smoothstep_rate((t - t_off) / ramp, ramp)
-    pos = _hand_press(point, normal, force, amount)
-    vel = -normal * (0.03 + force / HAND_STIFFNESS) * rate
-    return PartTarget(pos, vel)
-
-
-@dataclass(frozen=True)
-class Press:
-    """One press of a hand: ramps in at ``t_on``, out at ``t_off`` [s], on the surface point
-    ``point`` with outward ``normal`` (world), with ``force`` [N]."""
-
-    t_on: float
-    t_off: float
-    point: FloatArray
-    normal: FloatArray
-    force: float
-
-
-HAND_TRAVEL = 1.5
-"""Time a hand takes to move between two presses (minimum-jerk path between their approach
-points, or from where it waits) [s]; it arrives 0.25 s before the press ramps in."""
-
-
-def _approach(press: Press) -> FloatArray:
-    return np.asarray(press.point + press.normal * (HAND_RADIUS + 0.03))
-
-
-def hand_schedule(rest: FloatArray, presses: list[Press]) -> Callable[[float], PartTarget]:
-    """A hand's target over time: it waits at ``rest`` (world [m]), travels to each press's
-    approach point (3 cm off the surface) along a minimum-jerk path in :data:`HAND_TRAVEL`,
-    presses, lifts back to the approach point and waits there for its next press. A hand whose
-    first press starts too early to travel starts at that press's approach point. So a hand
-    never jumps: a spring target that leaps across the scene would throw the hand at the robot.
-    """
-    order = sorted(presses, key=lambda p: p.t_on)
-    zero = np.zeros(3)
-
-    def target(t: float) -> PartTarget:
-        here = np.asarray(rest, dtype=np.float64)
-        for k, press in enumerate(order):
-            approach = _approach(press)
-            t_go = press.t_on - 0.25 - HAND_TRAVEL
-            if t_go < 0.0 and k == 0:
-                here = approach
-            if t < t_go:
-                return PartTarget(here, zero)
-            if t < press.t_on - 0.25:
-                x = (t - t_go) / HAND_TRAVEL
-                delta = approach - here
-                return PartTarget(here + delta * minimum_jerk(x),
-                                  delta * minimum_jerk_rate(x, HAND_TRAVEL))
-            later = order[k + 1] if k + 1 < len(order) else None
-            if later is None or t < later.t_on - 0.25 - HAND_TRAVEL:
-                return _press_target(press.point, press.normal, press.force, t, press.t_on,
-                                     press.t_off)
-            here = approach
-        return PartTarget(here, zero)
-
-    return target
-
-
-def minimum_jerk(x: float) -> float:
-    """0 → 1 minimum-jerk profile 10x³ − 15x⁴ + 6x⁵ on x ∈ [0, 1] (clamped): zero velocity and
-    acceleration at both ends, as a person moves a hand or the body between two poses."""
-    x = min(max(x, 0.0), 1.0)
-    return x * x * x * (10.0 + x * (-15.0 + 6.0 * x))
-
-
-def minimum_jerk_rate(x: float, duration: float) -> float:
-    """d/dt of :func:`minimum_jerk` (x = t / duration) [1/s]."""
-    if not 0.0 < x < 1.0:
-        return 0.0
-    return 30.0 * x * x * (1.0 - x) * (1.0 - x) / duration
-
-
-# ---------------------------------------------------------------------------------------------
-# 1. Contact centring (Fig. 6)
-# ---------------------------------------------------------------------------------------------
-
-CENTRING_FORCE = 15.0
-"""Force of each press [N]."""
-
-
-def centring_script(sim: Simulation) -> Script:
-    """Even press on the middle of the right forearm (1–4 s), release; then presses from above
-    near the elbow end (right hand) and from below near the wrist end (left hand, coming from
-    where it waits) (6–9 s), release."""
-    up = np.array([0.0, 0.0, 1.0])
-    mid, n_mid, _ = press_geometry(sim, "right_forearm", 0.18, up)
-    top, n_top, _ = press_geometry(sim, "right_forearm", 0.25, up)
-    bottom, n_bottom, _ = press_geometry(sim, "right_forearm", 0.11, -up)
-    park_t = _parked("person_torso", sim)
-    f = CENTRING_FORCE
-    right = hand_schedule(_parked("person_right_hand", sim).position,
-                          [Press(1.0, 4.0, mid, n_mid, f), Press(6.0, 9.0, top, n_top, f)])
-    left = hand_schedule(_parked("person_left_hand", sim).position,
-                         [Press(6.0, 9.0, bottom, n_bottom, f)])
-
-    def script(t: float) -> dict[str, PartTarget]:
-        return {"person_right_hand": right(t), "person_left_hand": left(t),
-                "person_torso": park_t}
-
-    return script
-
-
-# ---------------------------------------------------------------------------------------------
-# 2. Contact-change tracking (Fig. 7)
-# ---------------------------------------------------------------------------------------------
-
-SLIDE_FORCE = 12.0
-SLIDE_AMPLITUDE = 0.05
-SLIDE_PERIOD = 6.0
-SLIDE_RELEASE = 14.0
-"""The hand lets go at this time [s] (2 s before the end of the full run)."""
-
-
-def surface_shift(sim: Simulation, patch: str, point: FloatArray, normal: FloatArray) -> float:
-    """How far the patch's surface under ``point`` (world) has moved along ``normal`` from
-    ``point`` at the current robot state [m]: the top of the link now lies at
-    ``point + shift · normal``. ``point`` is a surface point of an earlier state."""
-    p = robot_description().patch(patch)
-    rot, pos = sim.link_pose(p.link)
-    s = float((rot.T @ (point - pos) - np.array(p.point)) @ np.array(p.axis))
-    lo, hi = p.axial_range
-    now, _, _ = press_geometry(sim, patch, min(max(s, lo), hi), normal)
-    return float((now - point) @ normal)
-
-
-def sliding_script(sim: Simulation) -> Script:
-    """Press the middle of the left forearm from above (0.5–1.5 s), then slide ± 5 cm along the
-    link (sinusoid in the world, 6 s period, amplitude ramped in over the first period), then
-    let go at :data:`SLIDE_RELEASE`.
-
-    The hand keeps its press depth relative to the link's current surface (a person pressing
-    keeps the force, Fig. 7: the operator's force stays on while the contact slides): its
-    target along the press normal follows the link as the robot yields, while the slide is
-    scripted in the world, so the robot following the hand shrinks the slide on the skin."""
-    up = np.array([0.0, 0.0, 1.0])
-    mid, normal, axis = press_geometry(sim, "left_forearm", 0.18, up)
-    park_r = _parked("person_right_hand", sim)
-    park_t = _parked("person_torso", sim)
-
-    def script(t: float) -> dict[str, PartTarget]:
-        slide_t = max(t - 2.0, 0.0)
-        env = smoothstep(slide_t / SLIDE_PERIOD)
-        w = 2.0 * math.pi / SLIDE_PERIOD
-        offset = SLIDE_AMPLITUDE * env * math.sin(w * slide_t)
-        rate = SLIDE_AMPLITUDE * env * w * math.cos(w * slide_t) if t > 2.0 else 0.0
-        over = mid + axis * offset
-        surface = over + normal * surface_shift(sim, "left_forearm", over, normal)
-        press = _press_target(surface, normal, SLIDE_FORCE, t, 0.5, SLIDE_RELEASE)
-        return {
-            "person_left_hand": PartTarget(press.position, press.velocity + axis * rate),
-            "person_right_hand": park_r,
-            "person_torso": park_t,
-        }
-
-    return script
-
-
-# ---------------------------------------------------------------------------------------------
-# 3. Whole-body pHRI (Fig. 8)
-# ---------------------------------------------------------------------------------------------
-
-TOUCH_FORCE = 15.0
-TOUCH_PERIOD = 4.0
-SCENARIO_WHOLE_BODY_LENGTH = 24.0
-"""Full length of the whole-body scenario [s]."""
-"""Each link is touched for 2 s of every 4 s slot, links in turn."""
-
-
-def whole_body_script(sim: Simulation) -> Script:
-    """The left hand touches the left upper arm and the left forearm (from the outside, +y), the
-    right hand the right forearm (from above), one link per 4 s slot in turn (each touch 2 s,
-    from 0.5 s into its slot); between touches a hand waits at its last approach point and
-    travels to the next (:func:`hand_schedule`)."""
-    side = np.array([0.0, 1.0, 0.0])
-    up = np.array([0.0, 0.0, 1.0])
-    spots = [
-        ("person_left_hand", *press_geometry(sim, "left_upper_arm", 0.24, side)[:2]),
-        ("person_left_hand", *press_geometry(sim, "left_forearm", 0.18, side)[:2]),
-        ("person_right_hand", *press_geometry(sim, "right_forearm", 0.18, up)[:2]),
-    ]
-    slots = math.ceil(SCENARIO_WHOLE_BODY_LENGTH / TOUCH_PERIOD)
-    presses: dict[str, list[Press]] = {"person_left_hand": [], "person_right_hand": []}
-    for slot in range(slots):
-        hand, point, normal = spots[slot % len(spots)]
-        t_on = slot * TOUCH_PERIOD + 0.5
-        presses[hand].append(Press(t_on, t_on + 2.0, point, normal, TOUCH_FORCE))
-    hands = {name: hand_schedule(_parked(name, sim).position, p) for name, p in presses.items()}
+def _hands_script(sim: Simulation, touches: dict[str, list[Touch]]) -> Script:
+    """Both hands (:class:`~phri_sim.hand.ForceHand`, parked when they have no touch) and the
+    torso parked."""
+    hands = {name: ForceHand(sim, _parked(name, sim).position, touches.get(name, []))
+             for name in ("person_left_hand", "person_right_hand")}
     park_t = _parked("person_torso", sim)
 
     def script(t: float) -> dict[str, PartTarget]:
@@ -386,6 +175,117 @@ def whole_body_script(sim: Simulation) -> Script:
         return out
 
     return script
+
+
+UP = (0.0, 0.0, 1.0)
+DOWN = (0.0, 0.0, -1.0)
+SIDE = (0.0, 1.0, 0.0)
+
+# ---------------------------------------------------------------------------------------------
+# 1. Contact centring (Fig. 6)
+# ---------------------------------------------------------------------------------------------
+
+CENTRING_FORCE = 15.0
+"""Target normal force of each press [N]."""
+CENTRING_EVEN = (1.0, 3.0)
+"""Scenario ① (Fig. 6): the right hand presses evenly on the middle of the right forearm from
+above: (t_on, t_off) [s]; the force is gone at t_off + 0.2 s."""
+CENTRING_TWO_SIDED = (6.0, 8.0)
+"""Scenario ②: two hands press the right forearm on opposite sides at both ends: (t_on, t_off)."""
+CENTRING_S = (0.18, 0.235, 0.125)
+"""Axial positions on the patch [m]: the even press, the top press towards the elbow end, the
+bottom press towards the wrist end (5.5 cm either side of the middle: 15 N × 0.11 m = 1.65 N·m
+of torque about the contact centre, above the 1.2 N·m clamp; nearer the elbow the top hand
+would also press the upper arm)."""
+
+
+def centring_script(sim: Simulation) -> Script:
+    """① even press on the middle of the right forearm from above; ② presses from above near
+    the elbow end (right hand) and from below near the wrist end (left hand); each with
+    :data:`CENTRING_FORCE` held by :class:`~phri_sim.hand.ForceHand`, then a real release."""
+    f = CENTRING_FORCE
+    mid, top, bottom = CENTRING_S
+    return _hands_script(sim, {
+        "person_right_hand": [make_touch(sim, "right_forearm", mid, UP, *CENTRING_EVEN, f),
+                              make_touch(sim, "right_forearm", top, UP, *CENTRING_TWO_SIDED, f)],
+        "person_left_hand": [make_touch(sim, "right_forearm", bottom, DOWN,
+                                        *CENTRING_TWO_SIDED, f)],
+    })
+
+
+# ---------------------------------------------------------------------------------------------
+# 2. Contact-change tracking (Fig. 7)
+# ---------------------------------------------------------------------------------------------
+
+SLIDE_FORCE = 12.0
+"""Target normal force of the sliding hand [N]."""
+SLIDE_AMPLITUDE = 0.03
+"""How far the hand slides forward / backward along the link (world) [m]: the contact region
+(≈ 4 cm long under a 12 N press) then sticks out 2 cm past Ω_d (margin 1 cm)."""
+SLIDE_MOVES: tuple[tuple[float, float, float], ...] = (
+    (2.0, 1.0, 1.0), (6.0, 1.5, -1.0), (10.5, 1.5, 1.0))
+"""The slides: (start [s], duration [s], end position in units of :data:`SLIDE_AMPLITUDE`);
+the hand holds still between them (minimum-jerk moves), so whether the contact returns into
+Ω_d is up to the robot following it (Fig. 7: "under the robot's movement, the contact naturally
+slides back to the initial position")."""
+SLIDE_RELEASE = 14.0
+"""The hand lets go at this time [s] (2 s before the end of the full run)."""
+
+
+def slide_offset(t: float) -> float:
+    """The sliding hand's tangential offset along the link (world frame) at ``t`` [m]:
+    :data:`SLIDE_MOVES`, each a minimum-jerk move, still in between."""
+    position = 0.0
+    for start, duration, end in SLIDE_MOVES:
+        if t <= start:
+            break
+        target = end * SLIDE_AMPLITUDE
+        position += (target - position) * minimum_jerk((t - start) / duration)
+    return position
+
+
+def sliding_script(sim: Simulation) -> Script:
+    """Press the middle of the left forearm from above (from 0.5 s, :data:`SLIDE_FORCE` held by
+    :class:`~phri_sim.hand.ForceHand`; still until 2 s, so Ω_d is locked on a still hand), slide
+    forward, backward and forward along the link (:func:`slide_offset`, scripted in the world, so
+    the robot following the hand brings the contact back on the skin), then let go at
+    :data:`SLIDE_RELEASE`."""
+    touch = make_touch(sim, "left_forearm", 0.18, UP, 0.5, SLIDE_RELEASE, SLIDE_FORCE,
+                       slide=slide_offset)
+    return _hands_script(sim, {"person_left_hand": [touch]})
+
+
+# ---------------------------------------------------------------------------------------------
+# 3. Whole-body pHRI (Fig. 8)
+# ---------------------------------------------------------------------------------------------
+
+TOUCH_FORCE = 15.0
+"""Target normal force of each whole-body touch [N]."""
+TOUCH_PERIOD = 4.0
+"""Each link is touched for 2 s of every 4 s slot, links in turn."""
+SCENARIO_WHOLE_BODY_LENGTH = 24.0
+"""Full length of the whole-body scenario [s]."""
+WHOLE_BODY_SPOTS: tuple[tuple[str, str, float, tuple[float, float, float]], ...] = (
+    ("person_left_hand", "left_upper_arm", 0.24, SIDE),
+    ("person_left_hand", "left_forearm", 0.18, SIDE),
+    ("person_right_hand", "right_forearm", 0.18, UP),
+)
+"""(hand, patch, s [m], from direction) of the three touched links, in turn: the left hand
+touches the left upper arm and forearm from the outside (+y), the right hand the right forearm
+from above."""
+
+
+def whole_body_script(sim: Simulation) -> Script:
+    """One link per :data:`TOUCH_PERIOD` slot in turn (:data:`WHOLE_BODY_SPOTS`), each touch
+    :data:`TOUCH_FORCE` for 2 s from 0.5 s into its slot, held by
+    :class:`~phri_sim.hand.ForceHand`; between touches a hand lifts off and travels."""
+    slots = math.ceil(SCENARIO_WHOLE_BODY_LENGTH / TOUCH_PERIOD)
+    touches: dict[str, list[Touch]] = {"person_left_hand": [], "person_right_hand": []}
+    for slot in range(slots):
+        hand, patch, s, side = WHOLE_BODY_SPOTS[slot % len(WHOLE_BODY_SPOTS)]
+        t_on = slot * TOUCH_PERIOD + 0.5
+        touches[hand].append(make_touch(sim, patch, s, side, t_on, t_on + 2.0, TOUCH_FORCE))
+    return _hands_script(sim, touches)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -512,13 +412,23 @@ def waltz_duration() -> float:
 
 # ---------------------------------------------------------------------------------------------
 
-CENTRING_PARAMS = {**TABLE_II, **_admittance(paper.CENTRING)}
+REGION_WINDOW = 0.5
+"""Onset window of Ω_d [s] (controller ``region_window``, a documented deviation,
+docs/paper_vs_phri.md): covers the footprint's build-up under a press rising in 0.3 s, and the
+second hand of a two-sided press landing a few periods after the first."""
+REGION_HYSTERESIS = 0.0075
+"""Engage threshold of a face of Ω_i [m] (controller ``region_hysteresis``, a documented
+deviation): one taxel pitch (7.5 mm), so a boundary taxel flickering does not toggle μ."""
+REGION_SETTINGS = {"region_window": REGION_WINDOW, "region_hysteresis": REGION_HYSTERESIS}
+
+CENTRING_PARAMS = {**TABLE_II, **REGION_SETTINGS, **_admittance(paper.CENTRING)}
 SLIDING_PARAMS = {
     **TABLE_II,
     "region_margin": paper.REGION_MARGIN,
+    **REGION_SETTINGS,
     **_admittance(paper.TRACKING),
 }
-WHOLE_BODY_PARAMS = {**TABLE_II, **_admittance(paper.WHOLE_BODY)}
+WHOLE_BODY_PARAMS = {**TABLE_II, **REGION_SETTINGS, **_admittance(paper.WHOLE_BODY)}
 WALTZ_PARAMS = {
     **TABLE_II,
     **_admittance(paper.WALTZ),
@@ -546,3 +456,12 @@ SCENARIOS: dict[str, Scenario] = {
     )
 }
 
+LITERAL_REGION = {"region_window": 0.0, "region_hysteresis": 0.0}
+"""The paper's literal Ω_d: locked on the first frame of a touch, (10)–(11) without hysteresis."""
+PARAMETER_SETS: dict[str, dict[str, dict[str, Any]]] = {
+    name: {"phri": params, "literal": {**params, **LITERAL_REGION}}
+    for name, params in (("centring", CENTRING_PARAMS), ("sliding", SLIDING_PARAMS),
+                         ("whole_body", WHOLE_BODY_PARAMS))
+}
+"""Selectable controller parameter sets per scenario: ``phri`` (the scenario's own: the paper's
+values with the documented Ω_d deviations) and ``literal`` (the paper's values only)."""

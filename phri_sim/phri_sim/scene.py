@@ -178,17 +178,41 @@ def robot_spec() -> mujoco.MjSpec:
     return spec
 
 
-def scene_spec(parts: tuple[BodyPartSpec, ...] = PERSON_PARTS) -> mujoco.MjSpec:
-    """The full simulation scene: robot, floor, light and the person (``scene.xml``)."""
-    spec = robot_spec()
-    spec.modelname = "phri_scene"
+FLOOR_TILE = 0.5
+"""Side of the floor's checker squares [m] (a dance floor's tiles: motion and turns show)."""
+
+
+def _add_floor(spec: mujoco.MjSpec) -> None:
+    """A visual floor (no collisions): light/dark checker squares of :data:`FLOOR_TILE` with
+    thin lines on their edges."""
+    tex = spec.add_texture()
+    tex.name = "floor_checker"
+    tex.type = mujoco.mjtTexture.mjTEXTURE_2D
+    tex.builtin = mujoco.mjtBuiltin.mjBUILTIN_CHECKER
+    tex.mark = mujoco.mjtMark.mjMARK_EDGE
+    tex.rgb1 = np.array([0.62, 0.64, 0.68])
+    tex.rgb2 = np.array([0.48, 0.50, 0.55])
+    tex.markrgb = np.array([0.85, 0.85, 0.88])
+    tex.width = tex.height = 256
+    mat = spec.add_material()
+    mat.name = "floor_tiles"
+    mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = tex.name
+    mat.texuniform = True
+    mat.texrepeat = np.array([0.5 / FLOOR_TILE, 0.5 / FLOOR_TILE])
     floor = spec.worldbody.add_geom()
     floor.name = "floor"
     floor.type = mujoco.mjtGeom.mjGEOM_PLANE
     floor.size = np.array([0.0, 0.0, 0.05])
-    floor.rgba = np.array([0.55, 0.6, 0.65, 1.0])
+    floor.material = mat.name
     floor.contype = 0
     floor.conaffinity = 0
+
+
+def scene_spec(parts: tuple[BodyPartSpec, ...] = PERSON_PARTS) -> mujoco.MjSpec:
+    """The full simulation scene: robot, floor, light and the person (``scene.xml``)."""
+    spec = robot_spec()
+    spec.modelname = "phri_scene"
+    _add_floor(spec)
     light = spec.worldbody.add_light()
     light.name = "sun"
     light.pos = np.array([0.0, 0.0, 4.0])

@@ -11,8 +11,9 @@ four parts, each in its own module:
   their spring–dampers to scripted targets (:class:`~phri_sim.person.PartTarget` per part) and
   their poses;
 * :attr:`Simulation.skins` (:class:`~phri_sim.sim_skins.SimSkins`): the skin patches, their
-  taxel forces (footprint model of :mod:`phri_sim.skin`, seeded noise) and the ground truth per
-  skin link (:class:`~phri_sim.sim_skins.LinkGroundTruth`);
+  taxel forces (footprint model of :mod:`phri_sim.skin`, seeded sensor model of
+  :mod:`phri_sim.sensor_model`) and the ground truth per skin link
+  (:class:`~phri_sim.sim_skins.LinkGroundTruth`);
 * :attr:`Simulation.watchdog` (:class:`~phri_sim.watchdog.CommandWatchdog`): the commands in —
   base body twist ``[v_x, v_y, ω_z]`` [m/s, rad/s] and per-arm joint velocities [rad/s]; stale →
   zero, NaN/Inf → refused, clipped to the robot's speed limits as the real drivers do.
@@ -56,7 +57,7 @@ class SimConfig:
     Attributes:
         skin: skin sensor model.
         command_timeout: watchdog timeout [s] of sim time.
-        seed: seed of the sensor-noise generator (same seed → same run).
+        seed: seed of the skin sensor model (same seed → same run).
     """
 
     skin: SkinConfig = field(default_factory=SkinConfig)
@@ -218,9 +219,10 @@ class Simulation:
         """Per-patch noise-free taxel forces [N] now (:meth:`SimSkins.clean_forces`)."""
         return self.skins.clean_forces()
 
-    def add_skin_noise(self, patch: str, forces: FloatArray) -> FloatArray:
-        """``forces`` plus one sample of the patch's sensor noise (:meth:`SimSkins.add_noise`)."""
-        return self.skins.add_noise(patch, forces)
+    def skin_reading(self, patch: str, forces: FloatArray) -> FloatArray:
+        """What ``patch`` reports [N] for true forces ``forces`` without the driver in the loop
+        (:meth:`SimSkins.reading`)."""
+        return self.skins.reading(patch, forces)
 
     def ground_truth(self) -> Mapping[str, LinkGroundTruth]:
         """True contact per skin link at the current state (see :class:`LinkGroundTruth`)."""

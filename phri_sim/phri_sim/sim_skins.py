@@ -5,7 +5,9 @@ Per skin link, the contacts between the person's geoms and the link's geoms give
 * the ground truth (:class:`LinkGroundTruth`): the total force the person exerts on the link,
   the sum of the contacts' normal forces and their force-weighted mean point;
 * per patch on the link, the taxel forces of the footprint model (:mod:`phri_sim.skin`): each
-  person geom's normal force spread over the taxels it compresses, plus seeded sensor noise.
+  person geom's normal force spread over the taxels it compresses; the seeded sensor model
+  (:mod:`phri_sim.sensor_model`) turns them into a board's raw counts, or into the reading of a
+  perfectly tared driver.
 
 Both are computed lazily, once per physics state (:meth:`SimSkins.invalidate` after a step).
 """
@@ -20,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from phri_description.description import CylindricalPatch
+from phri_sim.sensor_model import PatchSensor
 from phri_sim.sim_robot import SimRobot
 from phri_sim.skin import (
     CapsuleShape,
@@ -56,11 +59,17 @@ class LinkGroundTruth:
 
 def geom_shape(model: mujoco.MjModel, data: mujoco.MjData, geom: int) -> Shape:
     """A sphere or capsule geom (person geoms are only these) as a world-frame shape [m]."""
-    pos = data.geom_xpos[geom].copy()
-    radius = float(model.geom_size[geom][0])
-    if model.geom_type[geom] == mujoco.mjtGeom.mjGEOM_SPHERE:
-        return SphereShape(pos, radius)
-    axis = data.geom_xmat[geom].reshape(3, 3)[:, 2] * float(model.geom_size[geom][1])
+    size = model.geom_size[geom]
+    half = 0.0 if model.geom_type[geom] == mujoco.mjtGeom.mjGEOM_SPHERE else float(size[1])
+    return _shape(data, geom, float(size[0]), half)
+
+
+def _shape(data: mujoco.MjData, geom: int, radius: float, half_length: float) -> Shape:
+    """The world-frame shape of a sphere (``half_length`` 0) or capsule geom [m]."""
+    pos = data.geom_xpos[geom]
+    if half_length == 0.0:
+        return SphereShape(pos.copy(), radius)
+    axis = data.geom_xmat[geom][2::3] * half_length  # the geom's z axis (column 2)
     return CapsuleShape(pos - axis, pos + axis, radius)
 
 
@@ -71,12 +80,14 @@ class SimSkins:
         model, data: the scene.
         patches: the description's skin patches.
         config: skin sensor model.
-        seed: seed of the sensor-noise generator (same seed → same noise).
+        seed: seed of the sensor model (per-taxel constants and noise; same seed → same
+            readings).
         person_geoms: ids of the geoms that belong to the person.
         robot: gives the link poses.
 
     Attributes:
         patches: patch name → its taxels and footprint model.
+        sensors: patch name → its sensor model.
         patch_link: patch name → the link it covers.
         skin_links: the links that carry skin, each once, in patch order.
     """
@@ -86,14 +97,24 @@ class SimSkins:
                  person_geoms: Collection[int], robot: SimRobot) -> None:
         self.model, self.data = model, data
         self.patches = {p.name: SkinPatchModel(layout_for_patch(p), config) for p in patches}
+        self.sensors = {p.name: PatchSensor(self.patches[p.name].layout, config.sensor, seed, i)
+                        for i, p in enumerate(patches)}
         self.patch_link = {p.name: p.link for p in patches}
         self.skin_links = tuple(dict.fromkeys(p.link for p in patches))
         self._body_link = {model.body(link).id: link for link in self.skin_links}
         self._person_geoms = frozenset(person_geoms)
+        self._geom_size = {  # person geom → (radius, capsule half length or 0 for a sphere)
+            g: (float(model.geom_size[g][0]),
+                0.0 if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_SPHERE
+                else float(model.geom_size[g][1]))
+            for g in self._person_geoms
+        }
         self._robot = robot
-        self._seed = seed
-        self._rng = np.random.default_rng(seed)
-        self._truth: dict[str, LinkGroundTruth] = {}
+        self._truth: dict[str, LinkGroundTruth] | None = None
+        self._touch_list: list[tuple[int, str, float, FloatArray]] = []
+        self._zeros = {name: np.zeros(p.size) for name, p in self.patches.items()}
+        for zeros in self._zeros.values():
+            zeros.setflags(write=False)
         self._contacts: dict[str, list[tuple[int, float]]] = {}
         self._dirty = True
 
@@ -102,8 +123,10 @@ class SimSkins:
         self._dirty = True
 
     def reset_noise(self) -> None:
-        """Restart the sensor-noise generator from the seed."""
-        self._rng = np.random.default_rng(self._seed)
+        """Restart the sensor-noise generator from the seed (the per-taxel constants of the
+        sensor model belong to the boards and stay)."""
+        for sensor in self.sensors.values():
+            sensor.reset_noise()
 
     def _touches(self) -> Iterator[tuple[int, int, str, float]]:
         """(contact index, person geom, skin link, sign) of every person↔skin-link contact; the
@@ -123,41 +146,51 @@ class SimSkins:
                 yield i, person, link, sign
 
     def _update(self) -> None:
-        """Collect person↔skin-link contacts: per link, (person geom, normal force) and the
-        ground truth (once per state)."""
+        """Collect person↔skin-link contacts (once per state): per link, (person geom, normal
+        force); the ground truth is built from them only when asked for."""
         if not self._dirty:
             return
         self._dirty = False
-        m, d = self.model, self.data
+        per_link: dict[str, dict[int, float]] = {}
+        touches: list[tuple[int, str, float, FloatArray]] = []
+        if self.data.ncon:
+            m, d = self.model, self.data
+            for i, person, link, sign in self._touches():
+                wrench = np.zeros(6)
+                mujoco.mj_contactForce(m, d, i, wrench)
+                touches.append((i, link, sign, wrench))
+                forces = per_link.setdefault(link, {})
+                forces[person] = forces.get(person, 0.0) + float(wrench[0])
+        self._touch_list = touches
+        self._truth = None
+        self._contacts = {link: list(v.items()) for link, v in per_link.items()}
+
+    def _build_truth(self) -> dict[str, LinkGroundTruth]:
+        """The ground truth per skin link from the collected contacts."""
+        d = self.data
         truth = {link: LinkGroundTruth(link) for link in self.skin_links}
-        per_link: dict[str, dict[int, float]] = {link: {} for link in self.skin_links}
         weighted = {link: np.zeros(3) for link in self.skin_links}
-        wrench = np.zeros(6)
-        for i, person, link, sign in self._touches():
+        for i, link, sign, wrench in self._touch_list:
             con = d.contact[i]
-            mujoco.mj_contactForce(m, d, i, wrench)
             frame = con.frame.reshape(3, 3)
             # Contact force acts on geom2 along +normal (frame row 0 points geom1 → geom2).
-            f_world = sign * (frame.T @ wrench[:3])
             fn = float(wrench[0])
             gt = truth[link]
             gt.in_contact = True
-            gt.force_world += f_world
+            gt.force_world += sign * (frame.T @ wrench[:3])
             gt.normal_force += fn
             weighted[link] += fn * con.pos
-            per_link[link][person] = per_link[link].get(person, 0.0) + fn
         for link, gt in truth.items():
             if gt.in_contact:
                 rot, pos = self._robot.link_pose(link)
                 gt.force_link = rot.T @ gt.force_world
                 if gt.normal_force > 0.0:
                     gt.center_link = rot.T @ (weighted[link] / gt.normal_force - pos)
-        self._truth = truth
-        self._contacts = {link: list(v.items()) for link, v in per_link.items()}
+        return truth
 
     def clean_forces(self) -> dict[str, FloatArray]:
         """Per-patch noise-free taxel forces [N] now (patch → (N,)), the footprint model of
-        :mod:`phri_sim.skin`; an untouched patch is all zeros."""
+        :mod:`phri_sim.skin`; an untouched patch is all zeros (a shared read-only array)."""
         self._update()
         out: dict[str, FloatArray] = {}
         for name, patch in self.patches.items():
@@ -165,26 +198,31 @@ class SimSkins:
             contacts = self._contacts.get(link, [])
             if contacts:
                 rot, pos = self._robot.link_pose(link)
-                forces = patch.forces(rot, pos, [(geom_shape(self.model, self.data, g), fn)
-                                                 for g, fn in contacts])
+                forces = patch.forces(rot, pos, [(_shape(self.data, g, *self._geom_size[g]), fn)
+                                                 for g, fn in contacts],
+                                      keys=[g for g, _ in contacts])
             else:
-                forces = np.zeros(patch.size)
+                forces = self._zeros[name]
             out[name] = forces
         return out
 
-    def add_noise(self, patch: str, forces: FloatArray) -> FloatArray:
-        """One sample of a patch's sensor noise added to ``forces`` (new array, clipped at 0);
-        draws from the seeded generator."""
-        return self.patches[patch].add_noise(forces, self._rng)
+    def reading(self, patch: str, forces: FloatArray) -> FloatArray:
+        """One sample of what a patch reports [N] for true forces ``forces`` without the
+        driver in the loop: its board's counts now, read with a perfect tare (sensor model)."""
+        sensor = self.sensors[patch]
+        return sensor.reading(sensor.counts(forces, float(self.data.time)))
 
     def forces(self, noise: bool = True) -> dict[str, FloatArray]:
-        """Per-patch taxel forces [N] now (patch → (N,)), plus sensor noise when ``noise``."""
+        """Per-patch taxel forces [N] now (patch → (N,)): the sensor model's reading when
+        ``noise``, else the true (footprint) forces."""
         clean = self.clean_forces()
         if not noise:
             return clean
-        return {name: self.add_noise(name, f) for name, f in clean.items()}
+        return {name: self.reading(name, f) for name, f in clean.items()}
 
     def ground_truth(self) -> Mapping[str, LinkGroundTruth]:
         """True contact per skin link at the current state (see :class:`LinkGroundTruth`)."""
         self._update()
+        if self._truth is None:
+            self._truth = self._build_truth()
         return self._truth

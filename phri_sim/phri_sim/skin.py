@@ -18,19 +18,21 @@ taxels' total equals the contact force exactly (before noise), the pressure is h
 person sinks in deepest, and even a tangent sphere lights a disc of radius ≈ √(2 R_eff h)
 (R_eff = R_person R_link / (R_person + R_link)), i.e. several taxels at 7.5 mm pitch.
 
-Sensor model: additive Gaussian noise of standard deviation ``noise_std`` per taxel and sample,
-then clipped at 0 (the convention: ``force`` ≥ 0 presses on the taxel).
+Sensor model (:mod:`phri_sim.sensor_model`): ADC counts with per-taxel gain error and zero
+offset, noise, quantisation and a few dead taxels; :class:`SkinConfig` carries its parameters.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from phri_description.description import CylindricalPatch
+from phri_sim.sensor_model import SensorConfig
 from skin_driver.layout import SkinLayout, cylindrical_patch
 
 FloatArray = NDArray[np.float64]
@@ -38,21 +40,32 @@ FloatArray = NDArray[np.float64]
 
 @dataclass(frozen=True)
 class SkinConfig:
-    """Skin sensor model.
+    """Skin model: footprint and sensor (:class:`~phri_sim.sensor_model.SensorConfig`).
 
     Attributes:
         softness: thickness h of the compliant layer of the footprint model [m].
-        noise_std: per-taxel Gaussian noise [N] (0 = noiseless).
+        noise_std: per-taxel noise, standard deviation [N] (0 = noiseless).
+        gain_error_std: per-taxel relative gain error, standard deviation [-].
+        offset_std: per-taxel zero offset, standard deviation [count].
+        dead_taxels: taxels per patch that never respond [-].
     """
 
     softness: float = 0.004
     noise_std: float = 0.005
+    gain_error_std: float = 0.05
+    offset_std: float = 20.0
+    dead_taxels: int = 3
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.softness) and self.softness > 0.0):
             raise ValueError(f"skin softness must be a positive length [m], got {self.softness}")
-        if not (np.isfinite(self.noise_std) and self.noise_std >= 0.0):
-            raise ValueError(f"skin noise_std must be ≥ 0 [N], got {self.noise_std}")
+        self.sensor  # noqa: B018  (validates the sensor settings)
+
+    @property
+    def sensor(self) -> SensorConfig:
+        """The sensor model's parameters."""
+        return SensorConfig(self.noise_std, self.gain_error_std, self.offset_std,
+                            self.dead_taxels)
 
 
 def layout_for_patch(patch: CylindricalPatch) -> SkinLayout:
@@ -89,6 +102,13 @@ class SphereShape:
         """(centre, radius) [m] of a sphere enclosing the shape."""
         return self.center, self.radius
 
+    def displacement(self, other: Shape) -> float:
+        """Largest distance [m] any point of this shape moved to become ``other`` (inf for a
+        different shape): a signed distance changes by at most this much."""
+        if not isinstance(other, SphereShape) or other.radius != self.radius:
+            return math.inf
+        return math.dist(other.center, self.center)
+
 
 @dataclass(frozen=True)
 class CapsuleShape:
@@ -118,6 +138,13 @@ class CapsuleShape:
         half = 0.5 * float(np.linalg.norm(self.b - self.a))
         return 0.5 * (self.a + self.b), half + self.radius
 
+    def displacement(self, other: Shape) -> float:
+        """Largest distance [m] any point of this shape moved to become ``other`` (inf for a
+        different shape; a segment's points move at most as far as its ends)."""
+        if not isinstance(other, CapsuleShape) or other.radius != self.radius:
+            return math.inf
+        return max(math.dist(other.a, self.a), math.dist(other.b, self.b))
+
 
 Shape = SphereShape | CapsuleShape
 
@@ -138,8 +165,20 @@ def distribute(total: float, weights: FloatArray) -> FloatArray:
     return np.asarray(weights * (total / s))
 
 
+NEAR_MARGIN = 0.005
+"""Band [m] beyond the compliant layer kept in a contact's cached candidate taxels."""
+
+
 class SkinPatchModel:
-    """One patch's taxels and their forces from a list of (shape, normal force) contacts."""
+    """One patch's taxels and their forces from a list of (shape, normal force) contacts.
+
+    Candidate taxels. Only taxels within the compliant layer of a shape carry force. For a
+    contact with a key (the person geom), the taxels within ``h +`` :data:`NEAR_MARGIN` of the
+    shape are kept and reused while the shape (in the link frame) has moved less than the
+    margin since: a signed distance changes by at most the shape's displacement, so no taxel
+    the shape now compresses can be outside the kept set (exact, not an approximation). The
+    500 Hz skin then evaluates the footprint on a few dozen taxels instead of thousands.
+    """
 
     def __init__(self, layout: SkinLayout, config: SkinConfig | None = None) -> None:
         self.layout = layout
@@ -147,41 +186,47 @@ class SkinPatchModel:
         self.positions = layout.positions
         self.normals = layout.normals
         self.size = layout.size
+        self._near: dict[int, tuple[Shape, NDArray[np.intp]]] = {}
 
     def forces(
         self,
         rotation: FloatArray,
         position: FloatArray,
         contacts: Iterable[tuple[Shape, float]],
+        keys: Sequence[int] | None = None,
     ) -> FloatArray:
         """Noise-free per-taxel normal forces [N] for the link pose and the touching shapes.
 
         Args:
             rotation, position: link pose in the world.
             contacts: (person geom shape, normal force [N] between it and this link).
+            keys: per contact, a key of its shape (the geom id) for the candidate cache (class
+                docstring); ``None``: no cache.
         """
         out = np.zeros(self.size)
         h = self.config.softness
-        for shape, normal_force in contacts:
+        for i, (shape, normal_force) in enumerate(contacts):
             if normal_force <= 0.0:
                 continue
-            # In the link frame (the taxel positions are stored there), and only for taxels
-            # that can be within the compliant layer of the shape: the footprint is a few cm
-            # across, the patch thousands of taxels.
+            # In the link frame (the taxel positions are stored there).
             local = shape.in_frame(rotation, position)
-            centre, reach = local.bounding_sphere()
-            d = self.positions - centre
-            near = np.flatnonzero(np.einsum("ij,ij->i", d, d) < (reach + h) ** 2)
+            near = self._candidates(local, None if keys is None else keys[i])
             if near.size == 0:
                 continue
             weights = footprint_weights(self.positions[near], local, h)
             out[near] += distribute(normal_force, weights)
         return out
 
-    def add_noise(self, forces: FloatArray, rng: np.random.Generator) -> FloatArray:
-        """Sensor noise (module docstring); returns a new array, clipped at 0."""
-        if self.config.noise_std <= 0.0:
-            return forces.copy()
-        noisy = forces + rng.normal(0.0, self.config.noise_std, self.size)
-        return np.asarray(np.maximum(noisy, 0.0))
-
+    def _candidates(self, local: Shape, key: int | None) -> NDArray[np.intp]:
+        """Indices of the taxels that can be within the compliant layer of ``local``."""
+        h = self.config.softness
+        if key is None:
+            centre, reach = local.bounding_sphere()
+            d = self.positions - centre
+            return np.flatnonzero(np.einsum("ij,ij->i", d, d) < (reach + h) ** 2)
+        cached = self._near.get(key)
+        if cached is not None and cached[0].displacement(local) < NEAR_MARGIN:
+            return cached[1]
+        near = np.flatnonzero(local.signed_distance(self.positions) < h + NEAR_MARGIN)
+        self._near[key] = (local, near)
+        return near

@@ -1,4 +1,4 @@
-"""The person's physics: soft waist tissue, smooth contacts, spring wrenches, hand paths.
+"""The person's physics: soft waist tissue, smooth contacts, spring wrenches, motion profiles.
 
 Each test checks a physical law or a contract against an independent reference (Hooke's law on
 the tissue springs, MuJoCo's own quaternion difference, finite differences of the motion
@@ -12,18 +12,14 @@ import math
 import mujoco
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from phri_sim.person import LEFT_HAND, PERSON_PARTS, TORSO, BodyPartSpec, PartTarget
+from phri_sim.profiles import minimum_jerk, minimum_jerk_rate
 from phri_sim.scenarios import (
-    HAND_TRAVEL,
     SCENARIOS,
     WALTZ_FORCE,
-    Press,
-    hand_schedule,
-    minimum_jerk,
-    minimum_jerk_rate,
     start_scenario,
     waltz_contact,
 )
@@ -175,34 +171,6 @@ def test_minimum_jerk_rate_is_its_derivative(x: float) -> None:
     numeric = (minimum_jerk(hi) - minimum_jerk(lo)) / ((hi - lo) * duration) if hi > lo else 0.0
     assert minimum_jerk_rate(x, duration) == pytest.approx(numeric, abs=1e-5)
     assert -1e-12 <= minimum_jerk(x) <= 1.0 + 1e-12
-
-
-@settings(max_examples=12, deadline=None)
-@given(st.lists(st.tuples(st.floats(0.5, 30.0), st.floats(1.0, 3.0)), min_size=1, max_size=4,
-                unique_by=lambda p: round(p[0])),
-       st.floats(0.5, 3.0))
-def test_hand_never_jumps(presses: list[tuple[float, float]], distance: float) -> None:
-    """Whatever the press schedule, the hand's target moves continuously (a leap of the spring
-    target would throw the hand at the robot): between two samples it moves at most
-    what the fastest travel or press ramp allows (sampled every 4 ms)."""
-    rng = np.random.default_rng(int(distance * 1000))
-    plan = []
-    t_next = 0.0
-    for start, length in sorted(presses):
-        t_on = max(start, t_next)
-        point = rng.normal(size=3)
-        normal = np.array([0.0, 0.0, 1.0])
-        plan.append(Press(t_on, t_on + length, point, normal, 15.0))
-        t_next = t_on + length + 0.5 + 0.25 + HAND_TRAVEL
-    rest = np.array([distance, 0.0, 0.0])
-    hand = hand_schedule(rest, plan)
-    dt = 4e-3
-    times = np.arange(0.0, t_next + 1.0, dt)
-    path = np.array([hand(float(t)).position for t in times])
-    steps = np.linalg.norm(np.diff(path, axis=0), axis=1)
-    span = max(float(np.linalg.norm(p.point - q.point)) for p in plan for q in plan) + distance
-    max_speed = 1.875 * (span + np.linalg.norm(plan[0].point) + 1.0) / HAND_TRAVEL + 1.0
-    assert float(steps.max()) <= max_speed * dt
 
 
 def test_refuses_a_timestep_that_diverges() -> None:

@@ -32,6 +32,14 @@ from phri_common import paper
 FloatArray = NDArray[np.float64]
 
 
+def counts_to_force(
+    counts: NDArray[np.integer], gain: FloatArray | float, offset: FloatArray | float
+) -> FloatArray:
+    """Step 1 of the pipeline: ``f = gain · (c − offset)`` [N] for raw counts ``c`` [count],
+    ``gain`` [N/count] and ``offset`` [count] (per taxel or scalar)."""
+    return np.asarray(gain * (counts.astype(np.int32, copy=False) - offset), dtype=np.float64)
+
+
 @dataclass(frozen=True)
 class CalibrationConfig:
     """Calibration settings shared by all patches of a driver.
@@ -223,7 +231,7 @@ class PatchCalibrator:
         if counts.shape != (self.size,):
             raise ValueError(f"expected {self.size} taxels, got {counts.shape}")
         raw = counts.astype(np.int32)
-        force = self._gain * (raw - self._offset)
+        force = counts_to_force(raw, self._gain, self._offset)
         saturated = raw >= cfg.saturation_count
         self._saturated = int(np.count_nonzero(saturated))
         if cfg.stuck_time > 0:

@@ -180,6 +180,10 @@ class ControllerConfig:
         horizon: position-limit horizon h of (22) [s].
         rate_hz: control rate [Hz]; the admittance is discretised for 1/rate_hz.
         region_margin: margin added on every side of the region locked as Ω_d [m].
+        region_window: onset window over which Ω_d grows to the union of the touch's regions
+            [s] (0 = the paper: locked on the first frame; :mod:`region`).
+        region_hysteresis: a face of Ω_i engages the track force only beyond this overshoot
+            [m] (0 = the paper's (10)–(11); :mod:`region`).
         velocity_limit: |q̇| bound for every joint and base axis [rad/s] / [m/s] (Table II),
             intersected with the robot's own velocity limits.
         joint_ranges: extra position ranges (intersected with the joint limits).
@@ -197,6 +201,8 @@ class ControllerConfig:
     horizon: float = paper.HORIZON
     rate_hz: float = paper.CONTROL_RATE_HZ
     region_margin: float = paper.REGION_MARGIN
+    region_window: float = 0.0
+    region_hysteresis: float = 0.0
     velocity_limit: float = paper.VELOCITY_LIMIT
     joint_ranges: tuple[JointRange, ...] = ()
     solver: str = "daqp"
@@ -212,6 +218,8 @@ class ControllerConfig:
             "horizon": self.horizon > 0.0,
             "rate_hz": self.rate_hz > 0.0,
             "region_margin": self.region_margin >= 0.0,
+            "region_window": self.region_window >= 0.0,
+            "region_hysteresis": self.region_hysteresis >= 0.0,
             "velocity_limit": self.velocity_limit >= 0.0,
         }
         for name, ok in checks.items():

@@ -37,6 +37,8 @@ from wholebody_controller.contact_safety import (
     limit_approach,
 )
 from wholebody_controller.linalg3 import matmul, matmul_transpose, rotate, rotate_pair
+from wholebody_controller.region import DesiredRegion
+from wholebody_controller.region import track_force as track_force  # (10)–(11), re-exported
 from wholebody_controller.so3 import Mat9, Vec3, exp_and_left_jacobian, log
 
 Array = NDArray[np.float64]
@@ -68,24 +70,6 @@ def contact_rate(center: Vec3, previous: Vec3, dt: float) -> Vec3:
     """ᶦṗ_η [m/s]: the contact centre's rate on the link, a difference over one period (fn. 2)."""
     return ((center[0] - previous[0]) / dt, (center[1] - previous[1]) / dt,
             (center[2] - previous[2]) / dt)
-
-
-def track_force(region_min: Vec3, region_max: Vec3, desired_min: Vec3,
-                desired_max: Vec3) -> Vec3:
-    """μ (10)–(11) [m]: f_R(x⁺ − x_d⁺) − f_R(x_d⁻ − x⁻) per axis, f_R(x) = max(x, 0).
-
-    Zero while Ω_i ⊆ Ω_d; a region extending past the desired +x face gives +x (the link is pushed
-    the way the contact slid, so the contact returns into Ω_d), past the −x face gives −x. Same
-    frame as the inputs (here the link frame).
-    """
-    ux, uy, uz = (region_max[0] - desired_max[0], region_max[1] - desired_max[1],
-                  region_max[2] - desired_max[2])
-    lx, ly, lz = (desired_min[0] - region_min[0], desired_min[1] - region_min[1],
-                  desired_min[2] - region_min[2])
-    # f_R written as conditionals: builtin max() costs a call each, six times per step.
-    return ((ux if ux > 0.0 else 0.0) - (lx if lx > 0.0 else 0.0),
-            (uy if uy > 0.0 else 0.0) - (ly if ly > 0.0 else 0.0),
-            (uz if uz > 0.0 else 0.0) - (lz if lz > 0.0 else 0.0))
 
 
 def contact_wrench(force: Vec3, torque: Vec3, mu: Vec3, k_eta: float, rot: Mat9) -> list[float]:
@@ -239,7 +223,8 @@ class ContactTask:
 
     def __init__(self, config: LinkTaskConfig, *, k_eta: float, b: float, k_p: float,
                  psi_thr: float, region_margin: float, dt: float,
-                 safety: SafetyConfig | None = None) -> None:
+                 safety: SafetyConfig | None = None, region_window: float = 0.0,
+                 region_hysteresis: float = 0.0) -> None:
         self.config = config
         self.safety = safety or SafetyConfig()
         assert config.force_limit is not None and config.transient_force_limit is not None
@@ -259,6 +244,11 @@ class ContactTask:
             ref = [float(x) for x in config.reference]
             user = (tuple(ref[0:9]), (ref[9], ref[10], ref[11]))
         self.life_cycle = LifeCycle(psi_thr, user)
+        box = None
+        if config.desired_region is not None:
+            (a, b, c), (d, e, f) = config.desired_region
+            box = ((float(a), float(b), float(c)), (float(d), float(e), float(f)))
+        self.region = DesiredRegion(region_margin, region_window, region_hysteresis, dt, box)
         self.reset()
 
     def reset(self) -> None:
@@ -273,7 +263,7 @@ class ContactTask:
         """ᶦp_η as an array for the Jacobian (8); the last touched centre is held after release,
         so the task point does not jump while the admittance decays."""
         self._had_contact = False
-        self._desired: tuple[Vec3, Vec3] | None = None
+        self.region.reset()
 
     @property
     def locked_reference(self) -> tuple[Array, Array] | None:
@@ -284,19 +274,8 @@ class ContactTask:
     @property
     def desired_region(self) -> tuple[Array, Array] | None:
         """Ω_d (link frame, margin included) [m] while locked."""
-        return None if self._desired is None else (np.array(self._desired[0]),
-                                                   np.array(self._desired[1]))
-
-    def _lock_region(self, contact: ContactState) -> None:
-        """Ω_d ← Ω_i plus the margin at the onset of a touch (Algorithm 1, line 14)."""
-        user = self.config.desired_region
-        if user is not None:
-            (a, b, c), (d, e, f) = user
-            self._desired = ((float(a), float(b), float(c)), (float(d), float(e), float(f)))
-            return
-        m = self.region_margin
-        lo, hi = contact.region_min.tolist(), contact.region_max.tolist()
-        self._desired = ((lo[0] - m, lo[1] - m, lo[2] - m), (hi[0] + m, hi[1] + m, hi[2] + m))
+        box = self.region.box
+        return None if box is None else (np.array(box[0]), np.array(box[1]))
 
     def _track_contact(self, contact: ContactState) -> Vec3 | None:
         """Update ᶦp_η from a touched contact; returns ᶦṗ_η between two touched samples."""
@@ -308,7 +287,7 @@ class ContactTask:
             self._point = (cx, cy, cz)
             self.jacobian_point = contact.center
         elif self._had_contact:
-            self._desired = None  # Ω_d belonged to that touch; a new touch locks its own
+            self.region.reset()  # Ω_d belonged to that touch; a new touch locks its own
         self._had_contact = bool(contact.in_contact)
         return rate
 
@@ -319,9 +298,9 @@ class ContactTask:
         mu: Vec3 = _ZERO3
         wrench = [0.0] * 6
         if force is not None:
-            if self._desired is not None:
+            if self.region.box is not None:
                 lo, hi = contact.region_min.tolist(), contact.region_max.tolist()
-                mu = track_force(lo, hi, *self._desired)
+                mu = self.region.track_force(lo, hi)
                 if mu == _ZERO3:
                     mu = _ZERO3  # the shared zero: no rotation needed downstream
             wrench = contact_wrench(force, contact.torque.tolist(), mu, self.k_eta, rot)
@@ -420,9 +399,9 @@ class ContactTask:
         activating, deactivated, active = self.life_cycle.advance(psi_raw, rot, pos)
         if deactivated:
             adm.reset()  # line 10
-            self._desired = None
-        if active and contact.in_contact and self._desired is None:
-            self._lock_region(contact)
+            self.region.reset()
+        if active and contact.in_contact:  # line 14 (and the onset window, :mod:`region`)
+            self.region.update(contact.region_min.tolist(), contact.region_max.tolist())
         if active:
             phase = _ACTIVATING if activating else (
                 _ACTIVE if contact.in_contact or lock is not None else _DEACTIVATING)

@@ -144,10 +144,11 @@ class WholeBodyController:
         previous = {task.config.link: task for task in self.tasks}
         old = self.config
         same_globals = (
-            old.k_eta, old.b, old.k_p, old.psi_thr, old.region_margin, old.rate_hz, old.safety
+            old.k_eta, old.b, old.k_p, old.psi_thr, old.region_margin, old.rate_hz, old.safety,
+            old.region_window, old.region_hysteresis,
         ) == (
             config.k_eta, config.b, config.k_p, config.psi_thr, config.region_margin,
-            config.rate_hz, config.safety,
+            config.rate_hz, config.safety, config.region_window, config.region_hysteresis,
         )
         tasks = []
         for link_cfg in config.links:
@@ -159,7 +160,8 @@ class WholeBodyController:
                 ContactTask(
                     link_cfg, k_eta=config.k_eta, b=config.b, k_p=config.k_p,
                     psi_thr=config.psi_thr, region_margin=config.region_margin, dt=config.dt,
-                    safety=config.safety,
+                    safety=config.safety, region_window=config.region_window,
+                    region_hysteresis=config.region_hysteresis,
                 )
             )
         lower = self._robot_position_limits[:, 0].copy()

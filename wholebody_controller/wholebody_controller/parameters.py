@@ -44,6 +44,10 @@ GLOBAL_PARAMS: list[ParamSpec] = [
     ParamSpec("horizon", paper.HORIZON, "position-limit horizon h of (22)", "s", 1e-3, 10.0),
     ParamSpec("region_margin", paper.REGION_MARGIN, "margin around the region locked as Ω_d",
               "m", 0.0, 1.0),
+    ParamSpec("region_window", 0.0, "onset window: Ω_d grows to the union of the touch's "
+              "regions (+ margin) for this long (0 = paper: the first frame)", "s", 0.0, 10.0),
+    ParamSpec("region_hysteresis", 0.0, "a face of Ω_i engages the track force only beyond "
+              "this overshoot, disengages inside Ω_d (0 = paper (10)–(11))", "m", 0.0, 1.0),
     ParamSpec("velocity_limit", paper.VELOCITY_LIMIT,
               "|q̇| bound of every joint and base axis (Table II), within the robot's own",
               "rad/s or m/s", 0.0, 10.0),
@@ -190,6 +194,8 @@ def config_from_values(
         horizon=float(values["horizon"]),
         rate_hz=float(values["rate_hz"]),
         region_margin=float(values["region_margin"]),
+        region_window=float(values["region_window"]),
+        region_hysteresis=float(values["region_hysteresis"]),
         velocity_limit=float(values["velocity_limit"]),
         joint_ranges=ranges,
         solver=solver,

@@ -1,0 +1,40 @@
+"""One lead through the real nodes: the controller follows a slow forward lead within the bars;
+a motionless robot (zero-command stub) fails the same lead by a wide margin."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from phri_sim.followability import run_lead
+from phri_sim.following import Bars
+from phri_sim.lead import Lead, LeadTiming, lead_passes
+
+pytestmark = pytest.mark.ros
+
+LEAD = Lead("translate", 0.05, 0.0)
+PROFILE = LeadTiming(distance=0.2, intro=0.5, ramp=0.5, outro=1.0).profile(LEAD)
+"""0.2 m of lead at 0.05 m/s: twice the 10 cm drift bar for a robot that stands still."""
+
+
+@pytest.fixture(scope="module")
+def runs() -> dict[str, dict[str, Any]]:
+    return {c: run_lead(LEAD, PROFILE, controller=c, seed=1) for c in ("node", "stub")}
+
+
+def test_the_controller_follows_a_slow_forward_lead(runs: dict[str, dict[str, Any]]) -> None:
+    m = runs["node"]
+    assert lead_passes(m, Bars())["all"], m["following"]["pass"]
+    # It trails by a few cm (the contact must slide past the 1 cm margin before it tracks).
+    assert m["following"]["travel"]["robot"] > 0.7 * m["following"]["travel"]["partner"]
+
+
+def test_a_motionless_robot_fails_the_same_lead_by_a_wide_margin(
+        runs: dict[str, dict[str, Any]]) -> None:
+    f = runs["stub"]["following"]
+    assert not lead_passes(runs["stub"], Bars())["all"]
+    assert f["travel"]["robot"] < 0.005
+    # The partner slides along (or off) the forearm: drift beyond the bar, force far from 10 N.
+    assert f["position_drift_max"] > 1.8 * Bars().position_drift_max
+    assert f["force_error_rms"] > 2.0 * runs["node"]["following"]["force_error_rms"]

@@ -1,0 +1,67 @@
+"""The real skin driver in the simulated loop at the paper's fidelity (docs/phri_sim.md,
+"Skin sensor model and the skin driver in the loop"): 500 Hz frames of the protocol through the
+driver, determinism, and that handing the estimator only each period's newest frame changes
+nothing downstream. (The scenario thresholds with the driver: test_scenarios.py.)"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from phri_sim.runner import ScenarioRun, run_scenario
+
+TIMING = ("wall_time", "real_time_factor", "cpu_time", "real_time_factor_cpu")
+
+
+def _outcome(metrics: dict[str, Any]) -> dict[str, Any]:
+    return {k: v for k, v in metrics.items() if k not in TIMING}
+
+
+@pytest.mark.ros
+def test_paper_fidelity_sends_every_500_hz_frame_through_the_driver(ros_context: Any) -> None:
+    run = ScenarioRun("centring", context=ros_context, duration=2.0, seed=2, fidelity="paper",
+                      skin_driver=True)
+    try:
+        metrics = run.run()
+        link = run.bridge.skin_link
+        assert link is not None
+        assert run.bridge.sim.dt == pytest.approx(0.002)
+        board = link.sensors["right_forearm"].board_id
+        counters = link.stream.counters[board]
+        parser = link.stream.parser.stats
+    finally:
+        run.close()
+    # While the patch is touched every 2 ms sample of it is a frame (untouched, it is read every
+    # 100 ms), after the 100 tare frames. At 100 Hz it would be a fifth of that.
+    touched = metrics["links"]["right_forearm_link"]["touched_share"] * 2.0
+    assert touched > 0.5
+    assert counters.taring == 100
+    assert counters.sequence.frames >= 100 + 0.95 * 500 * touched
+    assert counters.sequence.dropped == 0 and parser.errors == 0 and parser.resyncs == 0
+    assert metrics["links"]["right_forearm_link"]["scored_samples"] > 20
+    assert metrics["skin_driver"] and metrics["fidelity"] == "paper"
+
+
+@pytest.mark.ros
+def test_same_seed_same_run_with_the_driver_in_the_loop(ros_context: Any) -> None:
+    options = {"duration": 2.0, "fidelity": "paper", "skin_driver": True}
+    a = run_scenario("centring", context=ros_context, seed=3, **options)
+    b = run_scenario("centring", context=ros_context, seed=3, **options)
+    c = run_scenario("centring", context=ros_context, seed=4, **options)
+    assert _outcome(a) == _outcome(b)
+    link = "right_forearm_link"
+    assert a["links"][link]["scored_samples"] > 20
+    assert a["links"][link]["force_error_mean"] != c["links"][link]["force_error_mean"]
+
+
+@pytest.mark.ros
+def test_newest_frame_per_period_changes_nothing_downstream(ros_context: Any) -> None:
+    """The paper fidelity hands the estimator one frame per control period: the estimator keeps
+    nothing between frames and the controller uses the newest estimate, so publishing all five
+    500 Hz frames gives the same run."""
+    options = {"duration": 2.0, "seed": 5, "fidelity": "paper", "skin_driver": True}
+    every = run_scenario("centring", context=ros_context, taxel_publish_rate_hz=0.0, **options)
+    newest = run_scenario("centring", context=ros_context, **options)
+    assert every["links"]["right_forearm_link"]["scored_samples"] > 20
+    assert _outcome(every) == _outcome(newest)

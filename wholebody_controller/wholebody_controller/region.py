@@ -1,0 +1,111 @@
+"""The desired contact region Ω_d of one link and its track force (10)–(11) (pure).
+
+Paper (V-B, Algorithm 1 line 14): Ω_d ← Ω_i at the onset of a touch (plus the 0.01 m margin of
+VI-A.2), and μ = f_R(x⁺ − x_d⁺) − f_R(x_d⁻ − x⁻) per axis. Ω_i is the box of the contacting
+taxels, so it moves in steps of one taxel pitch; two documented deviations (both off by default,
+docs/wholebody_controller.md "Desired region") keep a still hand from producing a track force:
+
+* ``region_window`` w [s]: Ω_d grows to the union of (Ω_i + margin) over the first w seconds of
+  the touch ("derived from past contact regions", V-B). At onset only the first taxels are over
+  the threshold; the footprint grows while the press builds up (and a second hand of a two-sided
+  press lands a few periods after the first), so an Ω_d locked on the first frame is smaller than
+  the touch and yields a track force with nothing sliding.
+* ``region_hysteresis`` h [m]: each face of Ω_i engages the track force only once it is more
+  than h past its face of Ω_d, and disengages when it is back inside (a Schmitt trigger per
+  face). While engaged, (11) applies unchanged. A boundary taxel flickering over the threshold
+  moves a face by one pitch (7.5 mm); with h ≥ one pitch that flicker no longer toggles the track
+  force (issue 12: 237 toggles of 0 ↔ 1 N in 6 s with a still hand).
+"""
+
+from __future__ import annotations
+
+from wholebody_controller.so3 import Vec3
+
+Box = tuple[Vec3, Vec3]
+
+
+def track_force(region_min: Vec3, region_max: Vec3, desired_min: Vec3,
+                desired_max: Vec3) -> Vec3:
+    """μ (10)–(11) [m]: f_R(x⁺ − x_d⁺) − f_R(x_d⁻ − x⁻) per axis, f_R(x) = max(x, 0).
+
+    Zero while Ω_i ⊆ Ω_d; a region extending past the desired +x face gives +x (the link is pushed
+    the way the contact slid, so the contact returns into Ω_d), past the −x face gives −x. Same
+    frame as the inputs (here the link frame).
+    """
+    ux, uy, uz = (region_max[0] - desired_max[0], region_max[1] - desired_max[1],
+                  region_max[2] - desired_max[2])
+    lx, ly, lz = (desired_min[0] - region_min[0], desired_min[1] - region_min[1],
+                  desired_min[2] - region_min[2])
+    # f_R written as conditionals: builtin max() costs a call each, six times per step.
+    return ((ux if ux > 0.0 else 0.0) - (lx if lx > 0.0 else 0.0),
+            (uy if uy > 0.0 else 0.0) - (ly if ly > 0.0 else 0.0),
+            (uz if uz > 0.0 else 0.0) - (lz if lz > 0.0 else 0.0))
+
+
+def grow_box(box: Box, lo: Vec3, hi: Vec3, margin: float) -> Box:
+    """The smallest box holding ``box`` and [lo − margin, hi + margin] [m]."""
+    (a, b, c), (d, e, f) = box
+    return ((min(a, lo[0] - margin), min(b, lo[1] - margin), min(c, lo[2] - margin)),
+            (max(d, hi[0] + margin), max(e, hi[1] + margin), max(f, hi[2] + margin)))
+
+
+class DesiredRegion:
+    """Ω_d of one link (link frame, margin included) and μ (module docstring).
+
+    Args:
+        margin: margin added on every side of Ω_i [m].
+        window: onset window w over which Ω_d grows [s] (0 = lock on the first frame).
+        hysteresis: engage threshold h of each face [m] (0 = (10)–(11) exactly).
+        dt: control period [s].
+        user: a fixed Ω_d (lower, upper corner) [m] that replaces the locked one.
+    """
+
+    def __init__(self, margin: float, window: float, hysteresis: float, dt: float,
+                 user: Box | None = None) -> None:
+        for name, value in (("region_margin", margin), ("region_window", window),
+                            ("region_hysteresis", hysteresis)):
+            if not 0.0 <= value < float("inf"):
+                raise ValueError(f"{name} refused value {value}: allowed range [0, inf)")
+        self.margin, self.window, self.hysteresis, self.dt = margin, window, hysteresis, dt
+        self.user = user
+        self.box: Box | None = None
+        self._age = 0.0
+        self._engaged = [False] * 6
+
+    def reset(self) -> None:
+        """No Ω_d (the touch is over, or the task deactivated)."""
+        self.box = None
+        self._age = 0.0
+        self._engaged = [False] * 6
+
+    def update(self, lo: Vec3, hi: Vec3) -> None:
+        """Lock Ω_d on a touched frame's Ω_i = [lo, hi] (Algorithm 1 line 14); within the onset
+        window, grow it instead."""
+        if self.box is None:
+            self._age = 0.0
+            self.box = self.user if self.user is not None else grow_box((hi, lo), lo, hi,
+                                                                         self.margin)
+        elif self.user is None and self._age < self.window - 1e-12:
+            self.box = grow_box(self.box, lo, hi, self.margin)
+        self._age += self.dt
+
+    def track_force(self, lo: Vec3, hi: Vec3) -> Vec3:
+        """μ (11) of Ω_i = [lo, hi] against Ω_d [m] (zero without Ω_d), faces gated by the
+        hysteresis (module docstring)."""
+        if self.box is None:
+            return (0.0, 0.0, 0.0)
+        dlo, dhi = self.box
+        if self.hysteresis == 0.0:
+            return track_force(lo, hi, dlo, dhi)
+        h, engaged = self.hysteresis, self._engaged
+        mu = [0.0, 0.0, 0.0]
+        for k in range(3):
+            up, down = hi[k] - dhi[k], dlo[k] - lo[k]  # overshoot past the + and − face
+            for face, over, sign in ((2 * k, up, 1.0), (2 * k + 1, down, -1.0)):
+                if over <= 0.0:
+                    engaged[face] = False
+                elif over > h:
+                    engaged[face] = True
+                if engaged[face]:
+                    mu[k] += sign * over
+        return (mu[0], mu[1], mu[2])
