@@ -34,7 +34,7 @@ state used). Commands map to frames through those stamps. Nothing in the node's 
 (``phri_bringup.skin_contact_node``: direct hand-off, taxel topics at HZ).
 
 Run: ``.venv/bin/python bench/bench_chain.py [--seconds 60] [--taxels 2000] [--boards 3]
-[--rate 500] [--executor single|events] [--composed 50] [--no-markers]``. Keep runs ≤ 2 min
+[--rate 500] [--executor events|single] [--composed 50] [--no-markers]``. Keep runs ≤ 2 min
 on a shared machine.
 """
 
@@ -56,6 +56,7 @@ from typing import Any
 import numpy as np
 
 from phri_common.procstat import MachineCpu, load_line, process_cpu_s
+from phri_common.ros_main import EXECUTORS
 from phri_common.testing import isolate_ros_environment
 from phri_description.description import SKIN_LINKS, SKIN_PATCHES
 
@@ -95,6 +96,11 @@ def _board_process(index: int, port: str, layout_file: str, rate: float, stop: A
 
 
 # -- the controller process ---------------------------------------------------------------------
+PROBED_METHODS = ("take_contact", "tick", "destroy_node")
+"""The controller node's methods the probe wraps (a renamed one would silently record nothing:
+``test_bench_scripts.py`` checks they exist)."""
+
+
 def run_controller_probe(out: str, ros_args: Sequence[str]) -> int:
     """The controller node as deployed (``run_nodes``), with recording probes (module doc)."""
     from phri_common.ros_main import run_nodes
@@ -105,9 +111,9 @@ def run_controller_probe(out: str, ros_args: Sequence[str]) -> int:
     commands: list[tuple[int, ...]] = []
 
     class ProbedController(WholeBodyControllerNode):
-        def _on_contact(self, link: str, msg: Any) -> None:
+        def take_contact(self, link: str, state: Any) -> None:
             now = time.time_ns()
-            super()._on_contact(link, msg)
+            super().take_contact(link, state)
             state = self.contacts.get(link)
             if state is not None:
                 force = round(float(np.linalg.norm(state.force)) * 1e6)  # [µN]
@@ -397,6 +403,9 @@ def measure(args: argparse.Namespace, tmp: Path) -> None:
         inputs.close()
     cpu = {k: (cpu1[k] - cpu0[k]) / ((t1 - t0) / 1e9) for k in pids}
     records = np.load(tmp / "controller.npz")
+    if records["arrivals"].size == 0:
+        raise RuntimeError("the controller probe recorded no contact state (is "
+                           f"WholeBodyControllerNode still calling {PROBED_METHODS[0]}?)")
     report(args, sent, records, (t0, t1), cpu, machine1.busy_cores_since(machine0))
 
 
@@ -414,7 +423,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--controller-rate", type=float, default=500.0, help="[Hz]")
     p.add_argument("--inputs-rate", type=float, default=100.0,
                    help="joint state and odometry rate of this process [Hz]")
-    p.add_argument("--executor", choices=("single", "events"), default="single",
+    p.add_argument("--executor", choices=EXECUTORS, default=EXECUTORS[0],
                    help="PHRI_EXECUTOR of the node processes (phri_common.ros_main)")
     p.add_argument("--composed", type=float, default=None, metavar="HZ",
                    help="drivers and estimation in one process (phri_bringup.skin_contact_node),"

@@ -25,6 +25,7 @@ from rclpy.executors import SingleThreadedExecutor
 from sensor_msgs.msg import PointCloud2
 
 from phri_common.procstat import load_line
+from phri_common.ros_main import EXECUTOR_ENV, EXECUTORS
 from phri_common.stamps import stamp_to_ns
 from phri_common.taxels import TaxelCloudEncoder
 from phri_common.testing import isolate_ros_environment
@@ -49,7 +50,10 @@ def publish(seconds: float, taxels: int, rate: float, ready: Any, done: Any) -> 
     for patch, link in PATCHES.items():
         pubs[patch] = node.create_publisher(PointCloud2, f"skin/{patch}/taxels", 100)
         encoders[patch] = TaxelCloudEncoder(*cylinder_taxels(taxels), link)
-    forces = pressed_block(taxels, 0.1, rng)
+    # ADC-like noise (σ 2 mN ≪ σ_t) so no frame repeats the previous one bit for bit: a
+    # repeated loaded frame is a stuck skin and the estimator refuses it (stuck_timeout).
+    pressed = pressed_block(taxels, 0.1, rng)
+    noisy = [pressed + rng.normal(0.0, 0.002, taxels) for _ in range(64)]
     deadline = time.monotonic() + 20.0
     while any(p.get_subscription_count() == 0 for p in pubs.values()):
         rclpy.spin_once(node, timeout_sec=0.05)
@@ -59,9 +63,9 @@ def publish(seconds: float, taxels: int, rate: float, ready: Any, done: Any) -> 
     time.sleep(1.0)
     frames = int(seconds * rate)
     start = next_t = time.monotonic()
-    for _ in range(frames):
+    for k in range(frames):
         for patch in PATCHES:
-            pubs[patch].publish(encoders[patch].encode(forces, time.time_ns()))
+            pubs[patch].publish(encoders[patch].encode(noisy[k % 64], time.time_ns()))
         next_t += 1.0 / rate
         delay = next_t - time.monotonic()
         if delay > 0:
@@ -78,7 +82,7 @@ def main() -> None:
     parser.add_argument("--rate", type=float, default=500.0)
     args = parser.parse_args()
     print(load_line())
-    print(f"node executor (PHRI_EXECUTOR): {os.environ.get('PHRI_EXECUTOR') or 'single'}")
+    print(f"node executor (PHRI_EXECUTOR): {os.environ.get(EXECUTOR_ENV) or EXECUTORS[0]}")
     isolate_ros_environment()
     exe = Path(sys.executable).with_name("contact_estimation_node")
     node_proc = subprocess.Popen(

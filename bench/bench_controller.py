@@ -4,14 +4,17 @@
    ``estimate``) followed by :meth:`WholeBodyController.step` with all three links in contact
    (three admittances + life-cycles, kinematics update + three contact-centre Jacobians, QP build
    and solve), for each QP backend; the same with 3 × 10,000 taxels; then the breakdown into
-   stages, and the straightforward numpy reference step (``wholebody_controller/test/
+   stages, the estimation with the numpy reference kernel (``kernel="numpy"``, the code before
+   the compiled one) for a same-run before/after, and the straightforward numpy reference step
+   (``wholebody_controller/test/
    wbc_reference.py``, the implementation before the optimisation) for a same-load comparison.
 2. ``mink``: ``mink.solve_ik`` on the same robot (same MuJoCo model, same joints) with three
    ``FrameTask``s on the same links, ``ConfigurationLimit`` and ``VelocityLimit``, with daqp and
    OSQP; timed per call including ``Configuration.update``.
 3. ``node`` (``--node-seconds``): the controller node at 500 Hz in this process, spun like
-   ``phri_common.ros_main.run_nodes`` (single-threaded executor), with its inputs (joint states,
-   odometry, three contact states at 500 Hz) published by a separate peer process: loop period
+   ``phri_common.ros_main.run_nodes`` (``PHRI_EXECUTOR``, default events), with its inputs
+   (joint states, odometry, three contact states at 500 Hz) published by a separate peer
+   process: loop period
    median, p99 of |period − 2 ms|, max.
 
 All cases are timed in interleaved rounds so that a change of machine load hits every row alike.
@@ -22,6 +25,7 @@ Prints median and p99 in µs.
 from __future__ import annotations
 
 import argparse
+import os
 import subprocess
 import sys
 import time
@@ -72,10 +76,10 @@ def contacts_for(k: int) -> dict[str, ContactState]:
 class SkinFrames:
     """Contact estimation inputs: 3 cylinder patches of n taxels, a pressed area that slides."""
 
-    def __init__(self, taxels: int, frames: int = 64) -> None:
+    def __init__(self, taxels: int, frames: int = 64, kernel: str = "numba") -> None:
         rng = np.random.default_rng(0)
         self.estimator = ContactEstimator({f"p{i}": link for i, link in enumerate(SKIN_LINKS)},
-                                          EstimatorConfig())
+                                          EstimatorConfig(kernel=kernel))
         positions, normals = cylinder_taxels(taxels)
         for patch in self.estimator_patches:
             self.estimator.set_geometry(patch, positions, normals)
@@ -127,13 +131,15 @@ def controller_cases(repeats: int) -> dict[str, Case]:
     contact_seq = [contacts_for(k) for k in range(repeats + 200)]
     cases: dict[str, Case] = {}
     skin = {n: SkinFrames(n) for n in (2_000, 10_000)}
+    numpy_skin = {n: SkinFrames(n, kernel="numpy") for n in (2_000, 10_000)}
 
-    def stepper(solver: str, taxels: int | None) -> Case:
+    def stepper(solver: str, taxels: int | None, kernel: str = "numba") -> Case:
         ctl = WholeBodyController(RobotKinematics(), ControllerConfig(solver=solver))
         state = {"q": Q_HOME.copy()}
+        frames = skin if kernel == "numba" else numpy_skin
 
         def step(k: int) -> None:
-            contacts = skin[taxels].estimate(k) if taxels else contact_seq[k]
+            contacts = frames[taxels].estimate(k) if taxels else contact_seq[k]
             res = control_step(ctl, state["q"], contacts)
             state["q"] = state["q"] + 0.002 * res.qdot
 
@@ -142,7 +148,14 @@ def controller_cases(repeats: int) -> dict[str, Case]:
     cases["full step: estimation 3×2,000 + controller, daqp"] = stepper("daqp", 2_000)
     cases["full step: estimation 3×2,000 + controller, osqp"] = stepper("osqp", 2_000)
     cases["full step: estimation 3×10,000 + controller, daqp"] = stepper("daqp", 10_000)
+    cases["full step, estimation with the numpy kernel (before), 3×2,000"] = stepper(
+        "daqp", 2_000, "numpy")
+    cases["full step, estimation with the numpy kernel (before), 3×10,000"] = stepper(
+        "daqp", 10_000, "numpy")
     cases["  contact estimation, 3 × 2,000 taxels"] = skin[2_000].estimate
+    cases["  contact estimation, 3 × 10,000 taxels"] = skin[10_000].estimate
+    cases["  contact estimation, 3 × 2,000 taxels, numpy kernel (before)"] = (
+        numpy_skin[2_000].estimate)
     cases["  controller step (3 links in contact), daqp"] = stepper("daqp", None)
 
     # Breakdown of the controller step (daqp), stage by stage as step() runs them.
@@ -291,9 +304,9 @@ def run_peer(seconds: float) -> None:
 def bench_node(seconds: float) -> None:
     import rclpy
     from geometry_msgs.msg import Twist
-    from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter import Parameter
 
+    from phri_common.ros_main import EXECUTOR_ENV, EXECUTORS, make_executor
     from phri_common.testing import isolate_ros_environment
     from wholebody_controller.node import WholeBodyControllerNode
 
@@ -315,7 +328,7 @@ def bench_node(seconds: float) -> None:
     commands: list[int] = []
     node.create_subscription(Twist, "/cmd_vel", lambda _m: commands.append(1), 10)
     peer = subprocess.Popen([sys.executable, __file__, "--peer", str(seconds + 70.0)])
-    executor = SingleThreadedExecutor(context=context)
+    executor = make_executor(context=context)  # PHRI_EXECUTOR, as run_nodes
     executor.add_node(node)
 
     def spin_for(duration: float) -> None:
@@ -342,7 +355,8 @@ def bench_node(seconds: float) -> None:
     node.destroy_node()
     context.try_shutdown()
     jitter = np.abs(periods - 2.0)
-    print(f"\nnode at 500 Hz over {seconds:.0f} s (single-threaded executor, inputs from a peer "
+    kind = os.environ.get(EXECUTOR_ENV) or EXECUTORS[0]
+    print(f"\nnode at 500 Hz over {seconds:.0f} s (executor '{kind}', inputs from a peer "
           f"process): {len(periods)} periods, median {np.median(periods):.3f} ms, jitter p99 "
           f"{np.percentile(jitter, 99):.3f} ms, max {np.max(periods):.3f} ms; control cycles "
           f"{good} good / {zero} zero; tick callback median {np.median(tick_us):.0f} µs, p99 "

@@ -19,6 +19,9 @@ fixed by its calibrated layout, so the estimator precomputes, per taxel, the row
 ``Σ (p − c) × f = Σ p × f − c × Σ f``), computed for all links at once with a gather and a
 segmented reduction: about ten numpy calls per step whatever the number of links and patches.
 This gives exactly the sums over the union of a link's patches, with no per-taxel Python loop.
+That numpy version is the reference; by default (``kernel="numba"``) the same sums come from one
+compiled loop over the taxels (:mod:`contact_estimation.fused`), several times faster, and a
+frame of one patch only sums its own link.
 
 Bad input handling (documented in docs/contact_estimation.md), checked on every frame:
 
@@ -46,6 +49,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+import contact_estimation.fused as fused
 from phri_common import paper
 from phri_common.records import ContactState, TaxelArray
 
@@ -61,6 +65,10 @@ counts ≈ 32 N) and beyond any contact with a person; a larger value is a corru
 
 MAX_TAXEL_FORCE_RANGE = (1.0, 1.0e6)
 """Allowed range of ``max_taxel_force`` [N]."""
+
+KERNELS = ("numba", "numpy")
+"""Allowed values of ``kernel``: the per-link sums compiled (:mod:`contact_estimation.fused`,
+the default) or in numpy (the reference, :meth:`ContactEstimator._link_sums_numpy`)."""
 
 
 class InvalidTaxelData(ValueError):
@@ -84,14 +92,19 @@ class EstimatorConfig:
             refused as corrupted (:data:`DEFAULT_MAX_TAXEL_FORCE`).
         stuck_timeout: a touched patch whose forces repeat bit for bit for longer than this [s]
             (by frame stamps) is stuck, and its frames are refused (:class:`StuckDetector`).
+        kernel: how the per-link sums are computed, one of :data:`KERNELS`; both give the same
+            states (to rounding), the compiled one several times faster.
     """
 
     force_threshold: float = 0.05
     torque_limit: tuple[float, float, float] = PAPER_TORQUE_LIMIT
     max_taxel_force: float = DEFAULT_MAX_TAXEL_FORCE
     stuck_timeout: float = 0.5
+    kernel: str = KERNELS[0]
 
     def __post_init__(self) -> None:
+        if self.kernel not in KERNELS:
+            raise ValueError(f"kernel refused value {self.kernel!r}: allowed {list(KERNELS)}")
         if not (math.isfinite(self.force_threshold) and self.force_threshold >= 0.0):
             raise ValueError(
                 f"force_threshold [N] refused value {self.force_threshold}: allowed range "
@@ -258,14 +271,16 @@ class StuckDetector:
         self._since: dict[str, int] = {}
 
     def check(self, patch: str, norm2: float, forces: FloatArray, previous: FloatArray,
-              stamp_ns: int) -> None:
-        """Take ``patch``'s new frame (‖f‖² = ``norm2``) against its ``previous`` forces.
+              stamp_ns: int, unchanged: bool | None = None) -> None:
+        """Take ``patch``'s new frame (‖f‖² = ``norm2``) against its ``previous`` forces
+        (``unchanged``: their element-wise equality where the caller has computed it).
 
         Raises:
             InvalidTaxelData: the patch has been stuck for longer than the timeout.
         """
-        if (norm2 == 0.0 or norm2 != self._fingerprint.get(patch)
-                or not np.array_equal(forces, previous)):
+        if unchanged is None:
+            unchanged = norm2 == self._fingerprint.get(patch) and np.array_equal(forces, previous)
+        if norm2 == 0.0 or norm2 != self._fingerprint.get(patch) or not unchanged:
             self._fingerprint[patch] = norm2
             self._since[patch] = stamp_ns
             return
@@ -303,14 +318,19 @@ class ContactEstimator:
         self._order = [p for patches in self.links.values() for p in patches]
         self._geometry: dict[str, tuple[FloatArray, FloatArray, FloatArray | None]] = {}
         self._stamps: dict[str, int] = dict.fromkeys(self.patch_links, 0)
+        self._taken: dict[str, tuple[FloatArray, FloatArray, FloatArray | None]] = {}
         self._stuck = StuckDetector(self.config.stuck_timeout)
         self._limit = tuple(float(x) for x in self.config.torque_limit)
         self._build()
+        if self.config.kernel == "numba":
+            fused.warm_up()
 
     def reconfigure(self, config: EstimatorConfig) -> None:
         """Switch to new thresholds/limits; the next estimate uses them."""
         self.config = config
         self._limit = tuple(float(x) for x in config.torque_limit)
+        if config.kernel == "numba":
+            fused.warm_up()
 
     def _build(self) -> None:
         """(Re)build the concatenated geometry rows, force buffer and column ranges.
@@ -345,7 +365,12 @@ class ContactEstimator:
         for patches in self.links.values():
             self._link_starts.append(self._columns[patches[0]][0])
         self._link_items = list(self.links.items())
+        self._link_index = {link: i for i, (link, _) in enumerate(self._link_items)}
         self._link_starts.append(start)
+        # The compiled kernel's inputs: rows per taxel, link bounds, one output row per link.
+        self._rows_t = np.ascontiguousarray(self._rows[:, :start].T)
+        self._starts = np.array(self._link_starts, dtype=np.int64)
+        self._table = np.zeros((len(self._link_items), self._rows.shape[0] + fused.TABLE_EXTRA))
 
     def set_geometry(
         self,
@@ -362,6 +387,7 @@ class ContactEstimator:
         except InvalidTaxelData as err:
             raise InvalidTaxelData(f"patch {patch!r}: {err}") from err
         copy = None if weights is None else np.array(weights, dtype=np.float64)
+        self._taken.pop(patch, None)  # the next frame's geometry is checked against this one
         if patch in self._columns:  # a new geometry invalidates the patch's old forces
             c0, c1 = self._columns[patch]
             self._forces[c0:c1] = 0.0
@@ -392,10 +418,22 @@ class ContactEstimator:
             raise InvalidTaxelData(
                 f"patch {patch!r}: {forces.shape} forces for {c1 - c0} taxels"
             )
-        norm2 = check_forces(forces, self.config.max_taxel_force)
-        self._stuck.check(patch, norm2, forces, self._forces[c0:c1], stamp_ns)
-        self._forces[c0:c1] = forces
+        previous = self._forces[c0:c1]
+        norm2, unchanged = self._norm2(forces, previous)
+        self._stuck.check(patch, norm2, forces, previous, stamp_ns, unchanged)
+        previous[:] = forces
         self._stamps[patch] = stamp_ns
+
+    def _norm2(self, forces: FloatArray, previous: FloatArray) -> tuple[float, bool | None]:
+        """Range check of a new frame (:func:`check_forces`): ``(‖f‖² [N²], f == previous,
+        or None where not computed)``; raises :class:`InvalidTaxelData` as check_forces."""
+        limit = self.config.max_taxel_force
+        if self.config.kernel == "numpy" or forces.ndim != 1:
+            return check_forces(forces, limit), None
+        norm2, unchanged = fused.norm2_and_unchanged(forces, previous)
+        if norm2 <= limit * limit:
+            return norm2, unchanged
+        return check_forces(forces, limit), None  # names the bad value, or clears the alarm
 
     def update(
         self, patch: str, taxels: TaxelArray, check_geometry: bool = True
@@ -405,7 +443,9 @@ class ContactEstimator:
         ``check_geometry=False`` skips comparing the frame's positions/normals/weights with the
         known geometry (two array comparisons, ~25 µs for 2,000 taxels); a first frame or a
         change in taxel count is always taken as new geometry. The refusals (NaN/Inf anywhere,
-        forces beyond ``max_taxel_force``, an empty cloud) apply to every frame either way.
+        forces beyond ``max_taxel_force``, an empty cloud) apply to every frame either way,
+        except that geometry arrays that are the very objects of the patch's last taken frame
+        (read-only, so unchanged) are not checked again (:meth:`_take_geometry`).
 
         Raises:
             UnknownPatchError: ``patch`` is not configured.
@@ -413,7 +453,26 @@ class ContactEstimator:
         """
         link = self._patch_link(patch)
         _check_shapes(taxels.positions, taxels.normals, taxels.forces, taxels.weights)
-        norm2 = check_forces(taxels.forces, self.config.max_taxel_force)
+        geometry = (taxels.positions, taxels.normals, taxels.weights)
+        known_objects = self._taken.get(patch)
+        if known_objects is None or any(
+            a is not b for a, b in zip(geometry, known_objects, strict=True)
+        ):
+            self._take_geometry(patch, taxels, check_geometry)
+        c0, c1 = self._columns[patch]
+        previous = self._forces[c0:c1]
+        norm2, unchanged = self._norm2(taxels.forces, previous)
+        self._stuck.check(patch, norm2, taxels.forces, previous, taxels.stamp_ns, unchanged)
+        previous[:] = taxels.forces  # checked above, shape fixed by the geometry
+        self._stamps[patch] = taxels.stamp_ns
+        i = self._link_index[link]
+        return self._states(i, i + 1)[link]
+
+    def _take_geometry(self, patch: str, taxels: TaxelArray, check_geometry: bool) -> None:
+        """Check a frame's geometry values and take them as the patch's geometry if new (or
+        if its size changed); remember the frame's (read-only) array objects, so a frame
+        handing over the very same objects (a composed skin driver passes its layout's
+        arrays every frame) skips these checks: a TaxelArray's arrays cannot be written."""
         check_geometry_values(taxels.positions, taxels.normals, taxels.weights)
         known = self._geometry.get(patch)
         if (
@@ -422,11 +481,7 @@ class ContactEstimator:
             or (check_geometry and self._geometry_changed(known, taxels))
         ):
             self.set_geometry(patch, taxels.positions, taxels.normals, taxels.weights)
-        c0, c1 = self._columns[patch]
-        self._stuck.check(patch, norm2, taxels.forces, self._forces[c0:c1], taxels.stamp_ns)
-        self._forces[c0:c1] = taxels.forces  # checked above, shape fixed by the geometry
-        self._stamps[patch] = taxels.stamp_ns
-        return self.estimate()[link]
+        self._taken[patch] = (taxels.positions, taxels.normals, taxels.weights)
 
     @staticmethod
     def _geometry_changed(
@@ -443,28 +498,51 @@ class ContactEstimator:
         """Current contact state of ``link`` from its patches' latest frames."""
         if link not in self.links:
             raise KeyError(f"unknown link {link!r}; configured: {sorted(self.links)}")
-        return self.estimate()[link]
+        i = self._link_index[link]
+        return self._states(i, i + 1)[link]
 
     def estimate(self) -> dict[str, ContactState]:
         """Every link's contact state from its patches' latest frames (eq. 5, 9a, 9b, Ω_i)."""
+        return self._states(0, len(self._link_items))
+
+    def _link_sums_numpy(self, first: int, last: int) -> list[list[float]]:
+        """The numpy reference of :func:`contact_estimation.fused.link_sums` (the tests'
+        oracle): per link, ``[Σ rows (force rows × F), min p (3), max p (3), count]``."""
         forces = self._forces
         contacting = np.flatnonzero(forces > self.config.force_threshold)  # ends with sentinel
         gathered = self._rows[:, contacting]
         gathered[_FORCE_ROWS] *= forces[contacting]
         bounds = np.searchsorted(contacting, self._link_starts)
-        sums = np.add.reduceat(gathered, bounds, axis=1).T.tolist()
-        lows = np.minimum.reduceat(gathered[_P], bounds, axis=1).T.tolist()
-        highs = np.maximum.reduceat(gathered[_P], bounds, axis=1).T.tolist()
-        bounds_list = bounds.tolist()
+        table = np.concatenate([
+            np.add.reduceat(gathered, bounds, axis=1).T,
+            np.minimum.reduceat(gathered[_P], bounds, axis=1).T,
+            np.maximum.reduceat(gathered[_P], bounds, axis=1).T,
+            np.diff(bounds, append=bounds[-1])[:, None],
+        ], axis=1)
+        return table[first:last].tolist()
+
+    def _link_sums(self, first: int, last: int) -> list[list[float]]:
+        """Per-link sums of links ``first`` … ``last − 1`` by the configured kernel."""
+        if self.config.kernel == "numpy":
+            return self._link_sums_numpy(first, last)
+        table = self._table
+        fused.link_sums(self._forces, self._rows_t, self.config.force_threshold,
+                        self._starts, first, last, table)
+        return table[first:last].tolist()
+
+    def _states(self, first: int, last: int) -> dict[str, ContactState]:
+        """Contact states of links ``first`` … ``last − 1`` from their sums (5), (9a), (9b)."""
+        width = self._rows.shape[0]
         wp, w_row = (_WP, _W) if self._weighted else (_P, None)
         lim = self._limit
         rows: list[list[float]] = []  # per contacting link: centre, force, torque, min, max
         contacting_links: list[tuple[int, str, int, int]] = []
         states: dict[str, ContactState] = {}
-        for i, (link, patches) in enumerate(self._link_items):
+        items = self._link_items
+        for i, s in enumerate(self._link_sums(first, last), start=first):
+            link, patches = items[i]
             stamp = max([self._stamps[p] for p in patches])
-            s = sums[i]
-            count = bounds_list[i + 1] - bounds_list[i]
+            count = int(s[width + 6])
             w = float(count) if w_row is None else s[w_row]
             if count == 0 or w <= 0.0:
                 # No taxel over σ_t, or only taxels with ω = 0 (declared insensitive): the
@@ -481,7 +559,7 @@ class ContactEstimator:
             rows.append(
                 [cx, cy, cz, fx, fy, fz,
                  _clamp(tx, lim[0]), _clamp(ty, lim[1]), _clamp(tz, lim[2]),
-                 *lows[i], *highs[i]]
+                 *s[width : width + 6]]
             )
             contacting_links.append((len(rows) - 1, link, stamp, count))
         if rows:

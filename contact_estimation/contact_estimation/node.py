@@ -30,11 +30,13 @@ from typing import Any
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import PointCloud2
 from visualization_msgs.msg import MarkerArray
 
 from contact_estimation.estimator import (
     DEFAULT_MAX_TAXEL_FORCE,
+    KERNELS,
     MAX_TAXEL_FORCE_RANGE,
     PAPER_TORQUE_LIMIT,
     ContactEstimator,
@@ -42,12 +44,13 @@ from contact_estimation.estimator import (
     InvalidTaxelData,
 )
 from contact_estimation.markers import MarkerScales, MarkerThrottle, contact_markers
-from phri_common.contact import contact_to_msg
+from phri_common.contact_cdr import contact_to_cdr
 from phri_common.params import ParamSpec, ParamValue
 from phri_common.records import TaxelArray
 from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
 from phri_common.taxels import TaxelMessageError, msg_to_taxels
+from phri_common.taxels_cdr import taxels_from_cdr
 from phri_description.description import SKIN_LINKS, SKIN_PATCHES
 
 DEFAULT_PATCHES = list(SKIN_PATCHES)
@@ -74,6 +77,8 @@ PARAMS: list[ParamSpec] = [
               high=MAX_TAXEL_FORCE_RANGE[1]),
     ParamSpec("stuck_timeout", 0.5, "a touched patch whose frame repeats bit for bit for longer "
               "than this is stuck: its frames are refused", unit="s", low=0.01, high=60.0),
+    ParamSpec("kernel", KERNELS[0], "how the per-link sums are computed: numba (compiled, "
+              "default) or numpy (the reference); same states to rounding"),
     ParamSpec("publish_markers", True, "publish rviz markers on contacts/markers"),
     ParamSpec("marker_rate_hz", 30.0, "most marker arrays per second per link (state time; a "
               "contact that starts or ends is always drawn); 0 = every frame", unit="Hz",
@@ -102,6 +107,7 @@ def config_from_values(values: dict[str, ParamValue]) -> EstimatorConfig:
         torque_limit=(float(limit[0]), float(limit[1]), float(limit[2])),
         max_taxel_force=float(values["max_taxel_force"]),
         stuck_timeout=float(values["stuck_timeout"]),
+        kernel=str(values["kernel"]),
     )
 
 
@@ -149,9 +155,12 @@ class ContactEstimationNode(Node):
         }
         self._marker_pub = self.create_publisher(MarkerArray, "contacts/markers", 10)
         self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        # raw=True: the serialized bytes, read as views without rclpy's message objects
+        # (phri_common.taxels_cdr; other layouts take the full path of _on_taxels).
         self._subs = [
             self.create_subscription(
-                PointCloud2, f"skin/{patch}/taxels", partial(self._on_taxels, patch), SENSOR_QOS
+                PointCloud2, f"skin/{patch}/taxels", partial(self._on_taxel_bytes, patch),
+                SENSOR_QOS, raw=True,
             )
             for patch in patches
             if self._values["subscribe_taxels"]
@@ -180,6 +189,19 @@ class ContactEstimationNode(Node):
             self._diag_timer.timer_period_ns = int(period * 1e9)
         self._marker_throttle.set_rate(float(values["marker_rate_hz"]))
         self._values = values
+
+    def _on_taxel_bytes(self, patch: str, data: bytes) -> None:
+        try:
+            taxels = taxels_from_cdr(data)
+        except ValueError as err:  # e.g. an empty cloud, refused as msg_to_taxels would
+            with self._lock:
+                self._received[patch] += 1
+                self._refuse(patch, err)
+            return
+        if taxels is None:  # not phri's own layout: the reference decoder
+            self._on_taxels(patch, deserialize_message(data, PointCloud2))
+        else:
+            self.on_frame(patch, taxels)
 
     def _on_taxels(self, patch: str, msg: PointCloud2) -> None:
         try:
@@ -212,7 +234,9 @@ class ContactEstimationNode(Node):
             except InvalidTaxelData as err:
                 self._refuse(patch, err)
                 return
-            self._state_pubs[link].publish(contact_to_msg(state))
+            # Serialized here (phri_common.contact_cdr): rclpy's conversion of the message's
+            # 17 PointField objects would cost several times more.
+            self._state_pubs[link].publish(contact_to_cdr(state))
             if self._values["publish_markers"] and self._marker_throttle.due(state):
                 self._marker_pub.publish(
                     MarkerArray(markers=contact_markers(state, self._scales))

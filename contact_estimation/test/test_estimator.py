@@ -275,6 +275,23 @@ def test_changed_geometry_is_picked_up() -> None:
     np.testing.assert_allclose(second.center, first.center + np.array([1.0, 0.0, 0.0]))
 
 
+def test_frames_reusing_the_same_geometry_objects_keep_it_and_still_check_forces() -> None:
+    """A composed driver hands over its layout's (read-only) arrays every frame: they are
+    taken once; set_geometry in between makes the next such frame's geometry count again."""
+    positions, normals = flat_grid()
+    est = ContactEstimator({"p": "l"})
+    frame = taxels(positions, normals, np.ones(60))
+    first = est.update("p", frame)
+    for bad in (math.nan, 1e9):
+        with pytest.raises(InvalidTaxelData):
+            est.update("p", TaxelArray(frame.positions, frame.normals, np.full(60, bad), None,
+                                       "link", 1))
+    est.set_geometry("p", positions + np.array([1.0, 0.0, 0.0]), normals)
+    again = est.update("p", TaxelArray(frame.positions, frame.normals, np.ones(60), None,
+                                       "link", 2))
+    np.testing.assert_allclose(again.center, first.center)  # the frame's geometry, not the set
+
+
 def test_batched_estimate_matches_one_link_at_a_time() -> None:
     rng = np.random.default_rng(3)
     links = {"a": "l0", "b": "l1", "c": "l0", "d": "l2"}

@@ -52,3 +52,18 @@ def test_readme_documents_every_bench_script_and_only_existing_ones() -> None:
     readme = (ROOT / "README.md").read_text()
     named = set(re.findall(r"bench/(bench_\w+\.py)", readme))
     assert named == set(SCRIPTS)
+
+
+def test_bench_chain_probe_wraps_methods_the_controller_node_has() -> None:
+    """bench_chain.py's controller probe overrides node methods; if one is renamed the probe
+    records nothing and every frame reads as dropped (it happened: _on_contact was renamed)."""
+    import importlib.util
+
+    from wholebody_controller.node import WholeBodyControllerNode
+
+    spec = importlib.util.spec_from_file_location("bench_chain", ROOT / "bench" / "bench_chain.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    for method in module.PROBED_METHODS:
+        assert callable(getattr(WholeBodyControllerNode, method, None)), method

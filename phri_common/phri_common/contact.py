@@ -58,9 +58,9 @@ class ContactMessageError(CloudFormatError):
     """A message that claims to be a contact state is malformed or holds non-finite values."""
 
 
-def contact_to_msg(state: ContactState) -> PointCloud2:
-    """Encode a :class:`ContactState` as a one-point PointCloud2 (≈ 10 µs: no numpy)."""
-    data = _PACK(
+def contact_data(state: ContactState) -> bytes:
+    """The one point's bytes of a contact state message (layout in the module docstring)."""
+    return _PACK(
         *state.center.tolist(),
         *state.force.tolist(),
         *state.torque.tolist(),
@@ -69,6 +69,11 @@ def contact_to_msg(state: ContactState) -> PointCloud2:
         state.taxel_count,
         1 if state.in_contact else 0,
     )
+
+
+def contact_to_msg(state: ContactState) -> PointCloud2:
+    """Encode a :class:`ContactState` as a one-point PointCloud2 (≈ 10 µs: no numpy)."""
+    data = contact_data(state)
     msg = PointCloud2(
         header=Header(stamp=ns_to_stamp(state.stamp_ns), frame_id=state.link),
         height=1,
@@ -100,7 +105,7 @@ def msg_to_contact(msg: PointCloud2) -> ContactState:
         values = _STRUCT.unpack(msg.data)
     else:
         values = _generic_values(msg)
-    return _contact_from_values(msg, values)
+    return contact_from_values(msg.header.frame_id, stamp_to_ns(msg.header.stamp), values)
 
 
 def _generic_values(msg: PointCloud2) -> tuple[float | int, ...]:
@@ -116,14 +121,16 @@ def _generic_values(msg: PointCloud2) -> tuple[float | int, ...]:
     return tuple(rec[name].item() for name in CONTACT_FIELDS)
 
 
-def _contact_from_values(msg: PointCloud2, values: tuple[float | int, ...]) -> ContactState:
-    """A :class:`ContactState` from the 15 vector floats, the count and the flag; finite only."""
+def contact_from_values(frame_id: str, stamp_ns: int,
+                        values: tuple[float | int, ...]) -> ContactState:
+    """A :class:`ContactState` from the 15 vector floats, the count and the flag; finite only
+    (also the decoder of :mod:`phri_common.contact_cdr`)."""
     if not math.isfinite(float(sum(values[:15]))) and not all(map(math.isfinite, values[:15])):
         vectors = np.reshape(values[:15], (5, 3))
         bad = [n for n, vec in zip(CONTACT_VECTORS, vectors, strict=True)
                if not np.all(np.isfinite(vec))]
         raise ContactMessageError(
-            f"contact state of {msg.header.frame_id!r}: non-finite {', '.join(bad)}"
+            f"contact state of {frame_id!r}: non-finite {', '.join(bad)}"
         )
-    return ContactState.from_row(msg.header.frame_id, stamp_to_ns(msg.header.stamp),
-                                 bool(values[16]), values[:15], int(values[15]))
+    return ContactState.from_row(frame_id, stamp_ns, bool(values[16]), values[:15],
+                                 int(values[15]))

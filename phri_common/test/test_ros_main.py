@@ -51,11 +51,19 @@ def start_child(executor: str) -> subprocess.Popen[str]:
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
 
 
-def test_default_executor_is_the_single_threaded_one(
+def test_default_executor_is_the_events_executor(
     monkeypatch: pytest.MonkeyPatch, ros_context: Context
 ) -> None:
     monkeypatch.delenv(EXECUTOR_ENV, raising=False)
-    assert EXECUTORS[0] == "single"
+    executor = make_executor(context=ros_context)
+    assert type(executor).__name__ == "EventsExecutor"
+    executor.shutdown()
+
+
+def test_single_threaded_executor_is_chosen_by_the_environment(
+    monkeypatch: pytest.MonkeyPatch, ros_context: Context
+) -> None:
+    monkeypatch.setenv(EXECUTOR_ENV, "single")
     executor = make_executor(context=ros_context)
     assert isinstance(executor, SingleThreadedExecutor)
     executor.shutdown()
@@ -74,7 +82,7 @@ def test_unknown_executor_is_refused_naming_variable_value_and_choices(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     monkeypatch.setenv(EXECUTOR_ENV, "multi")
-    with pytest.raises(ValueError, match=r"PHRI_EXECUTOR refused value 'multi'.*'single'"):
+    with pytest.raises(ValueError, match=r"PHRI_EXECUTOR refused value 'multi'.*'events'"):
         make_executor()
 
 

@@ -452,8 +452,8 @@ def main(args: Sequence[str] | None = None) -> int:
     """Console entry point ``skin_driver_node [--ros-args …]``: run until SIGINT/SIGTERM.
 
     The serial thread does the per-frame work; the executor only runs timers and services.
-    ``phri_common.ros_main.run_nodes`` drives it (``PHRI_EXECUTOR``: ``single`` by default, or
-    ``events``; never ``EventsExecutor.spin()``, which busy-loops and ignores signals). A refused
+    ``phri_common.ros_main.run_nodes`` drives it (``PHRI_EXECUTOR``: ``events`` by default, or
+    ``single``; never ``EventsExecutor.spin()``, which busy-loops and ignores signals). A refused
     parameter exits with code 2 and a message naming it.
     """
     return run_nodes(lambda: [SkinDriverNode()], "skin_driver", args)

@@ -29,11 +29,13 @@ from nav_msgs.msg import Odometry
 from numpy.typing import NDArray
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
+from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 
 from phri_common.contact import ContactMessageError, msg_to_contact
+from phri_common.contact_cdr import contact_from_cdr
 from phri_common.params import ParamValue
 from phri_common.records import ContactState
 from phri_common.ros_main import run_nodes
@@ -144,9 +146,12 @@ class WholeBodyControllerNode(Node):
             link: self.create_publisher(PointCloud2, f"~/state/{link}", 10) for link in self.links
         }
         for link in self.links:
+            # raw=True: the serialized bytes, decoded without rclpy's PointField objects
+            # (phri_common.contact_cdr; other layouts take the full path of on_contact).
             self.create_subscription(
                 PointCloud2, f"contacts/{link}",
-                lambda msg, link=link: self.on_contact(link, msg), qos_profile_sensor_data,
+                lambda data, link=link: self.on_contact_bytes(link, data),
+                qos_profile_sensor_data, raw=True,
             )
         self.create_subscription(JointState, "/joint_states", self.on_joints,
                                  qos_profile_sensor_data)
@@ -189,19 +194,42 @@ class WholeBodyControllerNode(Node):
         self.rejected_inputs += 1
         self.get_logger().warning(f"refused {what}: {err}", throttle_duration_sec=1.0)
 
+    def on_contact_bytes(self, link: str, data: bytes) -> None:
+        """A serialized contact state of ``link`` (the subscriptions' path)."""
+        try:
+            state = contact_from_cdr(data)
+            if state is None:  # not phri's own layout: the reference decoder
+                state = msg_to_contact(deserialize_message(data, PointCloud2))
+        except ContactMessageError as err:
+            self._refuse_contact(link, err)
+            return
+        self.take_contact(link, state)
+
     def on_contact(self, link: str, msg: PointCloud2) -> None:
+        """A contact state message of ``link``: decoded, checked, kept for the next cycle."""
         try:
             state = msg_to_contact(msg)
+        except ContactMessageError as err:
+            self._refuse_contact(link, err)
+            return
+        self.take_contact(link, state)
+
+    def take_contact(self, link: str, state: ContactState) -> None:
+        """Check a decoded contact state of ``link`` and keep it (or refuse it)."""
+        try:
             if state.link != link:
                 raise InputError(f"frame_id {state.link!r} on the topic of {link!r}")
             check_contact_force(link, state.force.tolist(),
                                 float(self.params["max_contact_force"]))
-        except (ContactMessageError, InputError) as err:
-            self._refuse(f"contact state of {link}", err)
-            self.freshness.contact_refused(link)  # F9
+        except InputError as err:
+            self._refuse_contact(link, err)
             return
         self.contacts[link] = state
         self.freshness.contact_arrived(link, self.now_s())
+
+    def _refuse_contact(self, link: str, err: Exception) -> None:
+        self._refuse(f"contact state of {link}", err)
+        self.freshness.contact_refused(link)  # F9
 
     def on_joints(self, msg: JointState) -> None:
         try:

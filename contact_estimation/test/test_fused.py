@@ -1,0 +1,105 @@
+"""The compiled per-link sums (contact_estimation.fused) against the numpy reference.
+
+Both kernels run on the same randomized patches, links, weights, thresholds and forces; every
+link's contact state must agree (flags and counts exactly, vectors to rounding). The numpy
+reference itself is checked against hand-computed cases and a per-taxel loop in
+test_estimator.py.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from contact_estimation.estimator import ContactEstimator, EstimatorConfig, check_forces
+from phri_common.records import CONTACT_VECTORS
+
+
+def _pair(patch_links: dict[str, str], threshold: float,
+          limit: float) -> tuple[ContactEstimator, ContactEstimator]:
+    torque_limit = (limit, limit, limit)
+    return tuple(  # type: ignore[return-value]
+        ContactEstimator(patch_links, EstimatorConfig(force_threshold=threshold,
+                                                      torque_limit=torque_limit, kernel=k))
+        for k in ("numpy", "numba")
+    )
+
+
+def _assert_same(reference: ContactEstimator, fused: ContactEstimator) -> None:
+    expected, got = reference.estimate(), fused.estimate()
+    assert expected.keys() == got.keys()
+    for link, want in expected.items():
+        have = got[link]
+        assert (have.in_contact, have.taxel_count, have.stamp_ns) == (
+            want.in_contact, want.taxel_count, want.stamp_ns), link
+        for name in CONTACT_VECTORS:
+            np.testing.assert_allclose(getattr(have, name), getattr(want, name), rtol=1e-9,
+                                       atol=1e-12, err_msg=f"{link}.{name}")
+        # The per-link path of update()/link_state() gives the same state as estimate().
+        assert fused.link_state(link) == have
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    n_patches=st.integers(1, 5),
+    n_links=st.integers(1, 3),
+    weighted=st.booleans(),
+    threshold=st.sampled_from([0.0, 0.05, 0.5, 2.0]),
+    limit=st.sampled_from([math.inf, 0.05]),
+    frames=st.integers(1, 4),
+)
+def test_fused_kernel_matches_numpy_reference(seed: int, n_patches: int, n_links: int,
+                                              weighted: bool, threshold: float, limit: float,
+                                              frames: int) -> None:
+    rng = np.random.default_rng(seed)
+    patch_links = {f"p{i}": f"link{rng.integers(n_links)}" for i in range(n_patches)}
+    reference, fused = _pair(patch_links, threshold, limit)
+    for patch in patch_links:
+        n = int(rng.integers(1, 300))
+        positions = rng.uniform(-0.3, 0.3, (n, 3))
+        normals = rng.normal(size=(n, 3))
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        weights = rng.uniform(0.0, 2.0, n) if weighted and rng.random() < 0.7 else None
+        for est in (reference, fused):
+            est.set_geometry(patch, positions, normals, weights)
+    for frame in range(frames):
+        for patch in patch_links:
+            if rng.random() < 0.3:
+                continue  # some patches keep their previous frame
+            n = reference._columns[patch][1] - reference._columns[patch][0]
+            # Mostly below the threshold, a pressed part above it, some exactly at it.
+            forces = rng.uniform(-0.2, 0.2, n)
+            pressed = rng.random(n) < rng.uniform(0.0, 0.5)
+            forces[pressed] = rng.uniform(0.0, 20.0, int(pressed.sum()))
+            forces[rng.random(n) < 0.05] = threshold
+            for est in (reference, fused):
+                est.set_forces(patch, forces, stamp_ns=1000 * frame + 1)
+        _assert_same(reference, fused)
+
+
+def test_unknown_kernel_is_refused_with_the_allowed_values() -> None:
+    with pytest.raises(ValueError, match=r"kernel refused value 'fortran'.*numba.*numpy"):
+        EstimatorConfig(kernel="fortran")
+
+
+@settings(max_examples=50, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 500), same=st.booleans(),
+       float32=st.booleans())
+def test_norm2_and_unchanged_match_the_numpy_checks(seed: int, n: int, same: bool,
+                                                    float32: bool) -> None:
+    from contact_estimation.fused import norm2_and_unchanged
+
+    rng = np.random.default_rng(seed)
+    forces = rng.uniform(-30.0, 30.0, n).astype(np.float32 if float32 else np.float64)
+    previous = forces.astype(np.float64)
+    if not same:
+        previous[rng.integers(n)] += 1e-3
+    norm2, unchanged = norm2_and_unchanged(forces, previous)
+    # The reference range check's ‖f‖² (its dot product rounds in the array's precision).
+    assert norm2 == pytest.approx(check_forces(forces, 1e6), rel=1e-6 if float32 else 1e-12)
+    assert unchanged == np.array_equal(forces, previous)
