@@ -6,7 +6,7 @@
     phri sim --scenario centring --short --no-video
     phri sim --scenario waltz --foxglove          # live view on ws://localhost:8765
     phri sim --scenario waltz --fault skin_blind --fault-time 5   # rehearse a sensor fault
-    phri followability [--short] --out runs/followability   # the followability map
+    phri followability [--short] [--tempo] --out runs/followability   # the followability map
     phri plot runs/waltz                          # panels again from the recording
     phri video runs/waltz                         # video again from the recording
     phri params --check | --write                 # parameter files vs the paper's values
@@ -146,6 +146,9 @@ def _following_arguments(sub: Any, sim: argparse.ArgumentParser) -> None:
     follow.add_argument("--seed", type=int, default=0, help="skin noise seed")
     follow.add_argument("--motionless", action="store_true",
                         help="the map of a motionless robot (zero-command stub)")
+    follow.add_argument("--tempo", action="store_true",
+                        help="from the waltz_tempo hold: its controller set (per-axis "
+                             "velocity_limits at the robot's own)")
     _domain_argument(follow)
 
 
@@ -322,7 +325,8 @@ def cmd_followability(args: argparse.Namespace) -> int:
              f"pass {f['pass']['all']}  (wall {time.perf_counter() - start:.0f} s)")
 
     result = run_map(SHORT_FORM if args.short else FULL_FORM, seed=args.seed,
-                     controller="stub" if args.motionless else "node", progress=report)
+                     controller="stub" if args.motionless else "node", progress=report,
+                     base="waltz_tempo" if args.tempo else "waltz")
     (out / "followability.json").write_text(json.dumps(result, indent=2) + "\n",
                                             encoding="utf-8")
     plot_map(out / "followability.png", result)

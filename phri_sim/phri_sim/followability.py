@@ -47,29 +47,31 @@ SHORT_FORM = MapForm(SHORT_TIMING, HEADINGS_DEG, (0.05, 0.1), (0.1, 0.3))
 
 
 def run_lead(lead: Lead, profile: Profile, *, controller: str = "node",
-             seed: int = 0) -> dict[str, Any]:
+             seed: int = 0, base: str = "waltz") -> dict[str, Any]:
     """Metrics of one lead (``controller`` 'node' = the whole-body controller, 'stub' = a
-    motionless robot)."""
-    sc = lead_scenario(lead, profile)
+    motionless robot) from the hold of scenario ``base`` (its controller parameters)."""
+    sc = lead_scenario(lead, profile, base)
     with registered(sc):
         return run_scenario(sc.name, duration=profile.duration, seed=seed, controller=controller)
 
 
 def run_map(form: MapForm = FULL_FORM, bars: Bars | None = None, *, controller: str = "node",
-            seed: int = 0, progress: Callable[[Lead, dict[str, Any]], None] | None = None
-            ) -> dict[str, Any]:
+            seed: int = 0, progress: Callable[[Lead, dict[str, Any]], None] | None = None,
+            base: str = "waltz") -> dict[str, Any]:
     """The followability map (:func:`phri_sim.lead.followability_map`) through the nodes, with
     the form, controller and CPU time it took."""
     bars = bars or Bars()
     cpu = time.process_time()
 
     def run(lead: Lead) -> dict[str, Any]:
-        metrics = run_lead(lead, form.timing.profile(lead), controller=controller, seed=seed)
+        metrics = run_lead(lead, form.timing.profile(lead), controller=controller, seed=seed,
+                           base=base)
         if progress is not None:
             progress(lead, metrics)
         return metrics
 
     out = followability_map(run, bars, form.headings, form.speeds, form.turn_rates)
     out.update({"timing": vars(form.timing), "controller": controller, "seed": seed,
+                "scenario": base,
                 "cpu_time": time.process_time() - cpu})
     return out

@@ -10,7 +10,8 @@ and :meth:`MetricsRecorder.summary` reduces them to the scenario's JSON metrics:
   - a joint was beyond its hard joint limit (the description's range) by more than
     :data:`POSITION_TOLERANCE`, or
   - (waltz) an arm joint was outside q_dance ± range by more than :data:`POSITION_TOLERANCE`, or
-  - a servo was told to exceed the velocity limit (Table II, 0.15) by more than 1e-6;
+  - a servo was told to exceed its axis's velocity limit (Table II's 0.15, or the controller's
+    per-axis ``velocity_limits``) by more than 1e-6;
 
   ``violations_by_kind`` counts them per kind (``joint_limit``, ``dance_band``, ``velocity``).
   The tolerance is on purpose: the q_dance band is a constraint of the QP (22) on the *predicted*
@@ -154,7 +155,7 @@ class _LinkSeries:
 class MetricsRecorder:
     """Collects one sample per control period (module docstring)."""
 
-    def __init__(self, kind: str, velocity_limit: float = paper.VELOCITY_LIMIT,
+    def __init__(self, kind: str, velocity_limit: float | FloatArray = paper.VELOCITY_LIMIT,
                  position_ranges: FloatArray | None = None,
                  fault_time: float | None = None, desired_force: float = WALTZ_FORCE,
                  bars: Bars | None = None) -> None:
@@ -216,7 +217,7 @@ class MetricsRecorder:
                                           float(np.max(np.abs(q[finite] - centre))))
         peak = float(np.max(np.abs(command))) if command.size else 0.0
         self.max_command = max(self.max_command, peak)
-        bad_vel = peak > self.velocity_limit + VELOCITY_TOLERANCE
+        bad_vel = bool(np.any(np.abs(command) > self.velocity_limit + VELOCITY_TOLERANCE))
         if bad_joint or bad_band or bad_vel:
             self.violations += 1
             self.violation_kinds["joint_limit"] += int(bad_joint)

@@ -55,6 +55,7 @@ from phri_common.records import ContactState
 from phri_description.description import SKIN_LINKS
 from phri_sim.bridge import SimBridgeNode
 from phri_sim.faults import DEFAULT_FAULT_TIME, FAULT_KINDS
+from phri_sim.following import TEMPO_BARS
 from phri_sim.metrics import MetricsRecorder
 from phri_sim.scenarios import SCENARIOS, WALTZ_FORCE, WALTZ_LINK, Scenario
 
@@ -198,10 +199,14 @@ def _metrics(scenario: Scenario, sim: Any, fault_time: float | None) -> MetricsR
     """The run's metrics recorder, watching every physics step of ``sim``."""
     params = scenario.controller_parameters
     desired = params.get(f"{WALTZ_LINK}.desired_force")
+    limit = float(params.get("velocity_limit", paper.VELOCITY_LIMIT))
+    per_axis = params.get("velocity_limits")
     metrics = MetricsRecorder(
-        scenario.metrics, float(params.get("velocity_limit", paper.VELOCITY_LIMIT)),
+        scenario.metrics,
+        limit if per_axis is None else np.minimum(np.asarray(per_axis, dtype=float), limit),
         _dance_ranges(params), fault_time=fault_time,
         desired_force=WALTZ_FORCE if desired is None else float(np.linalg.norm(desired)),
+        bars=TEMPO_BARS if scenario.name == "waltz_tempo" else None,
     )
     metrics.watch(sim)
     return metrics

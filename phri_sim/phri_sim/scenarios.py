@@ -429,12 +429,23 @@ WALTZ_PARAMS = {
 :data:`WALTZ_DANCE_RANGE` and the lead moment (F1) with the carried reference (F2) of
 :mod:`wholebody_controller.following`."""
 
-WALTZ_TEMPO_VELOCITY_LIMIT = 0.5
-"""``velocity_limit`` of the `tempo` waltz [m/s, rad/s]: the mecanum base's 0.5 m/s, the
-tightest of the robot's own limits (base 1.0 rad/s, UR16e joints 2.09–3.14 rad/s); the
-controller has one bound for every axis."""
-WALTZ_TEMPO_PARAMS = {**WALTZ_PARAMS, "velocity_limit": WALTZ_TEMPO_VELOCITY_LIMIT}
-"""The default set at the robot's own speed limit (:data:`WALTZ_TEMPO_VELOCITY_LIMIT`)."""
+WALTZ_TEMPO_BASE_LIMITS = (0.5, 0.5, 1.0)
+"""The mecanum base's own speed limits for the `tempo` waltz (issue 14): x, y 0.5 m/s, yaw
+1.0 rad/s."""
+WALTZ_TEMPO_VELOCITY_LIMITS: tuple[float, ...] = (
+    *WALTZ_TEMPO_BASE_LIMITS,
+    *(math.ceil(1000.0 * v) / 1000.0 for v in robot_description().velocity_limits()[3:]),
+)
+"""``velocity_limits`` of the `tempo` waltz [m/s, rad/s], q order: the base's
+(:data:`WALTZ_TEMPO_BASE_LIMITS`), the UR16e joints' own from the description (2.09–3.14 rad/s,
+rounded up to 1e-3 so the description's decide)."""
+WALTZ_TEMPO_VELOCITY_LIMIT = max(WALTZ_TEMPO_VELOCITY_LIMITS)
+"""``velocity_limit`` of the `tempo` waltz: no tighter than any per-axis bound (Table II's single
+0.15 does not apply at a real tempo)."""
+WALTZ_TEMPO_PARAMS = {**WALTZ_PARAMS, "velocity_limit": WALTZ_TEMPO_VELOCITY_LIMIT,
+                      "velocity_limits": list(WALTZ_TEMPO_VELOCITY_LIMITS)}
+"""The default set at the robot's own per-axis speed limits
+(:data:`WALTZ_TEMPO_VELOCITY_LIMITS`)."""
 
 WALTZ_SHORT = 30.0
 """CI length of the waltz [s]: the hold, the closed change forward and the first natural turn's

@@ -38,3 +38,16 @@ def test_a_motionless_robot_fails_the_same_lead_by_a_wide_margin(
     # The partner slides along (or off) the forearm: drift beyond the bar, force far from 10 N.
     assert f["position_drift_max"] > 1.8 * Bars().position_drift_max
     assert f["force_error_rms"] > 2.0 * runs["node"]["following"]["force_error_rms"]
+
+
+def test_the_tempo_hold_moves_the_base_past_table_ii_within_its_own_limits() -> None:
+    """`--tempo` maps run with the `waltz_tempo` set: a partner pushing into the forearm at
+    0.3 m/s drives the base beyond Table II's 0.15 (the `waltz` set stops there), each axis
+    within its own per-axis bound (0 velocity violations)."""
+    push = Lead("translate", 0.3, 90.0)
+    profile = LeadTiming(distance=0.15, intro=0.5, ramp=0.3, outro=0.5).profile(push)
+    paper_set = run_lead(push, profile, seed=1)
+    tempo_set = run_lead(push, profile, seed=1, base="waltz_tempo")
+    assert paper_set["max_command"] <= 0.15 + 1e-6
+    assert tempo_set["max_command"] > 0.2
+    assert tempo_set["violations_by_kind"]["velocity"] == 0

@@ -150,3 +150,17 @@ def test_fuzzed_inputs_never_give_a_bad_command_nor_wedge(
         assert np.all(np.abs(command) <= limit + 1e-9)
     # Good input again: the robot is commanded within a few periods (no wedge).
     assert any(moving(node.cycle(odom_x=odom_x)) for _ in range(5))
+
+
+def test_per_axis_velocity_limits_reach_the_controller(node: RecordingNode) -> None:
+    from rclpy.parameter import Parameter
+
+    limits = [0.5, 0.4, 1.0] + [0.3] * 12
+    result = node.set_parameters([Parameter("velocity_limit", value=3.0),
+                                  Parameter("velocity_limits", value=limits)])
+    assert all(r.successful for r in result)
+    assert node.controller is not None
+    np.testing.assert_allclose(node.controller.velocity_upper,
+                               np.minimum(limits, node.kinematics.velocity_limits))
+    result = node.set_parameters([Parameter("velocity_limits", value=[0.5] * 14)])
+    assert not result[0].successful and "velocity_limits" in result[0].reason

@@ -20,10 +20,16 @@ from numpy.typing import NDArray
 from phri_common import paper
 from phri_common.iso15066 import BODY_REGIONS, region_of_link
 from phri_common.paper import Vector6
-from phri_description.description import SKIN_LINKS
+from phri_description.description import SKIN_LINKS, robot_description
 from wholebody_controller.contact_safety import SafetyConfig
 
 SOLVERS: tuple[str, ...] = ("daqp", "osqp")
+
+ROBOT_VELOCITY_LIMITS: tuple[float, ...] = tuple(
+    math.ceil(1000.0 * v) / 1000.0 for v in robot_description().velocity_limits().tolist()
+)
+"""Default per-axis ``velocity_limits``: the robot description's own limits in q order [m/s,
+rad/s] (base x, y, yaw, then both arms), rounded up to 1e-3 so the description's still decide."""
 
 
 @dataclass(frozen=True)
@@ -186,6 +192,9 @@ class ControllerConfig:
             [m] (0 = the paper's (10)–(11); :mod:`region`).
         velocity_limit: |q̇| bound for every joint and base axis [rad/s] / [m/s] (Table II),
             intersected with the robot's own velocity limits.
+        velocity_limits: per-axis |q̇| bounds in q order (base x, y [m/s], yaw [rad/s], then the
+            arm joints [rad/s]); default :data:`ROBOT_VELOCITY_LIMITS`. The bound of axis k is
+            min(robot's own, ``velocity_limit``, ``velocity_limits[k]``).
         joint_ranges: extra position ranges (intersected with the joint limits).
         safety: the graded force response and contact gating (:mod:`contact_safety`).
         lead_moment: every task adds the lead moment about its hold point and carries its
@@ -206,6 +215,7 @@ class ControllerConfig:
     region_window: float = 0.0
     region_hysteresis: float = 0.0
     velocity_limit: float = paper.VELOCITY_LIMIT
+    velocity_limits: tuple[float, ...] = ROBOT_VELOCITY_LIMITS
     joint_ranges: tuple[JointRange, ...] = ()
     solver: str = "daqp"
     safety: SafetyConfig = field(default_factory=SafetyConfig)
@@ -229,12 +239,29 @@ class ControllerConfig:
             value = getattr(self, name)
             if not ok or not math.isfinite(value):
                 raise ValueError(f"controller config: {name} = {value!r} is out of range")
+        for k, v in enumerate(self.velocity_limits):
+            if not (math.isfinite(v) and v >= 0.0):
+                raise ValueError(f"controller config: velocity_limits[{k}] = {v!r} is out of "
+                                 "range [0, inf)")
         if self.solver not in SOLVERS:
             raise ValueError(f"controller config: solver must be one of {SOLVERS}, got "
                              f"{self.solver!r}")
         names = [t.link for t in self.links]
         if len(set(names)) != len(names):
             raise ValueError(f"controller config: duplicate links in {names}")
+
+    def axis_velocity_limits(self, robot: NDArray[np.float64]) -> NDArray[np.float64]:
+        """|q̇| bound of every axis [m/s, rad/s]: min(``robot`` (its own limits, q order),
+        ``velocity_limit``, ``velocity_limits``).
+
+        Raises:
+            ValueError: ``velocity_limits`` does not have one entry per axis of ``robot``.
+        """
+        bound = np.minimum(np.asarray(robot, dtype=np.float64), self.velocity_limit)
+        if len(self.velocity_limits) != bound.shape[0]:
+            raise ValueError(f"controller config: velocity_limits has {len(self.velocity_limits)}"
+                             f" entries, the robot {bound.shape[0]} axes (base x, y, yaw, arms)")
+        return np.minimum(bound, np.asarray(self.velocity_limits, dtype=np.float64))
 
     @property
     def dt(self) -> float:

@@ -177,7 +177,7 @@ class WholeBodyController:
             upper[i] = min(upper[i], rng.upper)
             if lower[i] > upper[i]:
                 raise ValueError(f"joint range of {rng.joint} does not meet its joint limits")
-        vmax = np.minimum(self._robot_velocity_limits, config.velocity_limit)
+        vmax = config.axis_velocity_limits(self._robot_velocity_limits)
         if self._solver_override is not None:
             self.solver: QPSolver = self._solver_override
         elif getattr(self, "solver", None) is None or self.solver.name != config.solver:

@@ -16,6 +16,7 @@ from phri_common import paper
 from phri_common.params import ParamSpec
 from phri_description.description import SKIN_LINKS
 from wholebody_controller.config import (
+    ROBOT_VELOCITY_LIMITS,
     AdmittanceGains,
     ControllerConfig,
     LinkTaskConfig,
@@ -51,6 +52,9 @@ GLOBAL_PARAMS: list[ParamSpec] = [
     ParamSpec("velocity_limit", paper.VELOCITY_LIMIT,
               "|q̇| bound of every joint and base axis (Table II), within the robot's own",
               "rad/s or m/s", 0.0, 10.0),
+    ParamSpec("velocity_limits", list(ROBOT_VELOCITY_LIMITS),
+              "|q̇| bound of each axis in q order (base x, y, yaw, left then right arm joints), "
+              "within velocity_limit and the robot's own", "m/s or rad/s", 0.0, 10.0, length=15),
     ParamSpec("q_dance_enabled", False,
               "hold each arm joint within q_dance ± q_dance_range (waltz, Sec. VI-B)"),
     ParamSpec("q_dance", [0.0] * 12,
@@ -200,6 +204,7 @@ def config_from_values(
         region_window=float(values["region_window"]),
         region_hysteresis=float(values["region_hysteresis"]),
         velocity_limit=float(values["velocity_limit"]),
+        velocity_limits=tuple(float(v) for v in values["velocity_limits"]),
         joint_ranges=ranges,
         solver=solver,
         safety=_safety_config(values),
