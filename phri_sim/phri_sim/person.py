@@ -31,6 +31,15 @@ and ``person_chest``):
   forearm, so a turn of the dancer against the forearm shifts the pressure to one end of the
   back (the lead a round waist cannot give); above it a chest (horizontal capsule, 0.36 × 0.22 m)
   and a head (sphere).
+A person who stops pushing. The spring–damper alone is a partner who never notices a robot
+that has stopped: with the target dancing on, K_lin·(p_target − p) grows without bound (a 30 s
+skin fault in the 186.5 s waltz, robot stopped: 128 N held on the waist; the `tempo` partner
+running into the stopped robot: 18.8 kN). A person leading a dance uses tens of newtons (the
+waltz's own waist force peaks at 31 N) and does not walk through a partner who has stopped, so
+the torso's horizontal drive force is capped at ``max_push`` = 80 N (the direction kept):
+never reached while the robot follows, and below the abdomen's quasi-static 110 N of ISO/TS
+15066, so a fault scenario measures what the robot does, not a scripted push no person makes.
+
 * ``person_left_hand``, ``person_right_hand``: spheres that press and slide on the skin.
 """
 
@@ -112,6 +121,8 @@ class BodyPartSpec:
         rot_damping: rotational damper D_rot [N·m·s/rad].
         parking: where the part waits when a scenario does not use it (world) [m].
         tissue: optional compliant layer under some geoms (``None`` = all geoms rigid).
+        max_push: largest horizontal drive force [N] (module docstring, "A person who stops
+            pushing"); ``inf`` = the spring–damper unbounded.
     """
 
     name: str
@@ -123,6 +134,7 @@ class BodyPartSpec:
     rot_damping: float
     parking: tuple[float, float, float]
     tissue: SoftTissue | None = None
+    max_push: float = math.inf
 
     @property
     def tissue_body(self) -> str:
@@ -182,6 +194,7 @@ TORSO = BodyPartSpec(
     rot_damping=80.0,
     parking=(3.0, -3.0, WAIST_HEIGHT),
     tissue=WAIST_TISSUE,
+    max_push=80.0,
 )
 LEFT_HAND = BodyPartSpec(
     name="person_left_hand",

@@ -5,6 +5,7 @@ its target; the target position moves on with its scripted velocity from when it
 
     p_target(t) = p_set + v_target (t − t_set)                                     [m]
     F = K_lin (p_target(t) − p) + D_lin (v_target − v)                              [N]
+    F_xy ← F_xy · min(1, F_max / ‖F_xy‖)        (a person who stops pushing, person.py)
     τ = R (K_rot subQuat(q_target, q) − D_rot ω_body)                             [N·m]
 
 (``mju_subQuat`` gives the body-frame rotation vector from the current to the target orientation;
@@ -13,6 +14,8 @@ so a script evaluated once per control period still drives a smooth target.
 """
 
 from __future__ import annotations
+
+import math
 
 import mujoco
 import numpy as np
@@ -52,6 +55,7 @@ class SimPerson:
         self._d_lin = np.array([p.damping for p in parts])
         self._k_rot = np.array([p.rot_stiffness for p in parts])
         self._d_rot = np.array([p.rot_damping for p in parts])
+        self._max_push = np.array([p.max_push for p in parts])
         n = len(parts)
         self._target_pos, self._target_vel = np.zeros((n, 3)), np.zeros((n, 3))
         self._target_time = np.zeros(n)
@@ -123,6 +127,9 @@ class SimPerson:
             vel = self._target_vel[i]
             xfrc[b, 0:3] = self._k_lin[i] * (self._target_pos[i] + vel * lag - xpos[b]) + (
                 self._d_lin[i] * (vel - qvel[dof : dof + 3]))
+            push = math.hypot(xfrc[b, 0], xfrc[b, 1])
+            if push > self._max_push[i]:  # person.py, "A person who stops pushing"
+                xfrc[b, 0:2] *= self._max_push[i] / push
             quat[0], quat[3] = self._target_cos[i], self._target_sin[i]
             mujoco.mju_subQuat(err, quat, xquat[b])
             torque[:] = self._k_rot[i] * err - self._d_rot[i] * qvel[dof + 3 : dof + 6]

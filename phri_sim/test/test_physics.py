@@ -136,6 +136,9 @@ def _expected_wrench(sim: Simulation, part: BodyPartSpec, position: np.ndarray,
     dof = sim.person.part_dof[part.name]
     force = part.stiffness * (position - sim.data.xpos[b]) + part.damping * (
         velocity - sim.data.qvel[dof : dof + 3])
+    horizontal = math.hypot(force[0], force[1])
+    if horizontal > part.max_push:  # person.py, "A person who stops pushing"
+        force[:2] *= part.max_push / horizontal
     quat = np.array([math.cos(0.5 * yaw), 0.0, 0.0, math.sin(0.5 * yaw)])
     err = np.zeros(3)
     mujoco.mju_subQuat(err, quat, sim.data.xquat[b])
@@ -164,6 +167,25 @@ def test_person_wrench_matches_mujoco_quaternion_difference() -> None:
         b = sim.person.part_body[part.name]
         np.testing.assert_allclose(sim.data.xfrc_applied[b, :3], force, atol=1e-9)
         np.testing.assert_allclose(sim.data.xfrc_applied[b, 3:], torque, atol=1e-9)
+
+
+@pytest.mark.parametrize(("distance", "expected"), [(0.05, 600.0 * 0.05), (1.0, 80.0)])
+def test_the_torso_pushes_at_most_a_persons_push(distance: float, expected: float) -> None:
+    """A torso at rest 5 cm from its target pulls with K·d = 30 N; 1 m away (a partner who
+    dances on while the robot has stopped) with 80 N, towards the target, the vertical part
+    untouched (person.py, "A person who stops pushing")."""
+    sim = _quiet_sim()
+    b = sim.person.part_body[TORSO.name]
+    start = sim.data.xpos[b].copy()
+    direction = np.array([0.6, -0.8, 0.0])
+    sim.set_target(TORSO.name, PartTarget(start + distance * direction + [0.0, 0.0, 0.01],
+                                          np.zeros(3), 0.0))
+    sim.data.qvel[sim.person.part_dof[TORSO.name] : sim.person.part_dof[TORSO.name] + 3] = 0.0
+    sim.person.apply_wrenches(sim.time)
+    force = sim.data.xfrc_applied[b, :3]
+    assert TORSO.stiffness == 600.0 and TORSO.max_push == 80.0
+    np.testing.assert_allclose(force[:2], expected * direction[:2], rtol=1e-9)
+    assert force[2] == pytest.approx(600.0 * 0.01)
 
 
 def test_target_moves_with_its_velocity_between_updates() -> None:
