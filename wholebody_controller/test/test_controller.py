@@ -234,6 +234,17 @@ def test_configure_keeps_unchanged_tasks_and_switches_solver(kin: KinematicsMode
     assert again.tasks[1].phase is Phase.DEACTIVATING
 
 
+def test_configure_rebuilds_tasks_when_a_task_setting_changes(kin: KinematicsModel) -> None:
+    """Every global a task is built from reaches the tasks on a reconfigure (the lead moment was
+    left out of the "unchanged" check once, so switching it at run time did nothing)."""
+    ctl = WholeBodyController(kin)
+    assert not any(task.lead for task in ctl.tasks)
+    ctl.configure(replace(ctl.config, lead_moment=True))
+    assert all(task.lead for task in ctl.tasks)
+    ctl.configure(replace(ctl.config, region_hysteresis=0.005))
+    assert all(task.region.hysteresis == 0.005 for task in ctl.tasks)
+
+
 class FailingSolver:
     name = "failing"
 

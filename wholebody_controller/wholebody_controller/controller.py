@@ -141,29 +141,7 @@ class WholeBodyController:
 
     def configure(self, config: ControllerConfig) -> None:
         """Apply a new configuration. Tasks whose settings are unchanged keep their state."""
-        previous = {task.config.link: task for task in self.tasks}
-        old = self.config
-        same_globals = (
-            old.k_eta, old.b, old.k_p, old.psi_thr, old.region_margin, old.rate_hz, old.safety,
-            old.region_window, old.region_hysteresis,
-        ) == (
-            config.k_eta, config.b, config.k_p, config.psi_thr, config.region_margin,
-            config.rate_hz, config.safety, config.region_window, config.region_hysteresis,
-        )
-        tasks = []
-        for link_cfg in config.links:
-            keep = previous.get(link_cfg.link)
-            if keep is not None and same_globals and keep.config == link_cfg:
-                tasks.append(keep)
-                continue
-            tasks.append(
-                ContactTask(
-                    link_cfg, k_eta=config.k_eta, b=config.b, k_p=config.k_p,
-                    psi_thr=config.psi_thr, region_margin=config.region_margin, dt=config.dt,
-                    safety=config.safety, region_window=config.region_window,
-                    region_hysteresis=config.region_hysteresis, lead=config.lead_moment,
-                )
-            )
+        tasks = self._build_tasks(config)
         lower = self._robot_position_limits[:, 0].copy()
         upper = self._robot_position_limits[:, 1].copy()
         index = {name: i for i, name in enumerate(self.joint_names)}
@@ -200,6 +178,27 @@ class WholeBodyController:
         self.velocity_lower = -vmax
         self.tasks = tasks
         self.config = config
+
+    def _build_tasks(self, config: ControllerConfig) -> list[ContactTask]:
+        """One task per configured link; a task whose link settings and task globals are
+        unchanged is kept with its state."""
+        previous = {task.config.link: task for task in self.tasks}
+        same_globals = _task_globals(self.config) == _task_globals(config)
+        tasks = []
+        for link_cfg in config.links:
+            keep = previous.get(link_cfg.link)
+            if keep is not None and same_globals and keep.config == link_cfg:
+                tasks.append(keep)
+                continue
+            tasks.append(
+                ContactTask(
+                    link_cfg, k_eta=config.k_eta, b=config.b, k_p=config.k_p,
+                    psi_thr=config.psi_thr, region_margin=config.region_margin, dt=config.dt,
+                    safety=config.safety, region_window=config.region_window,
+                    region_hysteresis=config.region_hysteresis, lead=config.lead_moment,
+                )
+            )
+        return tasks
 
     def reset(self) -> None:
         """Every task back to inactive (e.g. after stale input)."""
@@ -264,3 +263,11 @@ class WholeBodyController:
             raise QPError("non-finite command")
         u[0], u[1] = base_to_world(yaw, u[0], u[1])
         return StepResult(command, np.array(u), tuple(outputs), problem, target, jacobian)
+
+
+def _task_globals(config: ControllerConfig) -> tuple[object, ...]:
+    """The controller-wide settings every :class:`ContactTask` is built from (a change rebuilds
+    the tasks)."""
+    return (config.k_eta, config.b, config.k_p, config.psi_thr, config.region_margin,
+            config.rate_hz, config.safety, config.region_window, config.region_hysteresis,
+            config.lead_moment)
