@@ -80,6 +80,15 @@ class Admittance:
             )
 
     @property
+    def matrices(self) -> tuple[Array, Array]:
+        """``(Φ 12×12, Γ 12×6)`` of the discrete step (read-only by convention)."""
+        return self._phi, self._gamma
+
+    def set_state(self, deflection: list[float], velocity: list[float]) -> None:
+        """Replace the state: x̃ [m, rad] and ẋ̃ [m/s, rad/s], 6 floats each."""
+        self._x, self._v = list(deflection), list(velocity)
+
+    @property
     def decoupled(self) -> bool:
         """Whether Φ and Γ are zero outside each axis' (x̃_k, ẋ̃_k) pair (diagonal Λ, D, K):
         the step then runs per axis."""

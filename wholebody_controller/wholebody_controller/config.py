@@ -24,6 +24,9 @@ from phri_description.description import SKIN_LINKS, robot_description
 from wholebody_controller.contact_safety import SafetyConfig
 
 SOLVERS: tuple[str, ...] = ("daqp", "osqp")
+KERNELS: tuple[str, ...] = ("numba", "python")
+"""Allowed values of ``kernel``: the control step compiled (:mod:`~wholebody_controller.fused`,
+default) or the Python reference it is tested against."""
 
 ROBOT_VELOCITY_LIMITS: tuple[float, ...] = tuple(
     math.ceil(1000.0 * v) / 1000.0 for v in robot_description().velocity_limits().tolist()
@@ -201,6 +204,9 @@ class ControllerConfig:
             reference (:mod:`~wholebody_controller.following`); off = the paper's task.
         solver: QP backend, ``"daqp"`` (exact active set, default: faster and exact) or
             ``"osqp"`` (the paper's, warm-started with tight tolerances).
+        kernel: how the tasks, Jacobians and QP of a step are computed, one of
+            :data:`KERNELS`: ``"numba"`` (compiled, :mod:`~wholebody_controller.fused`; with a
+            kinematics it cannot drive, the Python step runs) or ``"python"`` (the reference).
     """
 
     links: tuple[LinkTaskConfig, ...] = tuple(LinkTaskConfig(name) for name in SKIN_LINKS)
@@ -218,6 +224,7 @@ class ControllerConfig:
     velocity_limits: tuple[float, ...] = ROBOT_VELOCITY_LIMITS
     joint_ranges: tuple[JointRange, ...] = ()
     solver: str = "daqp"
+    kernel: str = KERNELS[0]
     safety: SafetyConfig = field(default_factory=SafetyConfig)
     lead_moment: bool = False
 
@@ -246,6 +253,9 @@ class ControllerConfig:
         if self.solver not in SOLVERS:
             raise ValueError(f"controller config: solver must be one of {SOLVERS}, got "
                              f"{self.solver!r}")
+        if self.kernel not in KERNELS:
+            raise ValueError(f"controller config: kernel refused value {self.kernel!r}: allowed "
+                             f"{list(KERNELS)}")
         names = [t.link for t in self.links]
         if len(set(names)) != len(names):
             raise ValueError(f"controller config: duplicate links in {names}")

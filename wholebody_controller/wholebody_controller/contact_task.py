@@ -145,6 +145,11 @@ class LifeCycle:
         self._user_reference = user_reference
         self.reset()
 
+    @property
+    def user_reference(self) -> tuple[Mat9, Vec3] | None:
+        """The user's reference pose (⁰R_r row-major, ⁰p_r [m]) locked at activation, if any."""
+        return self._user_reference
+
     def reset(self) -> None:
         """Inactive, nothing locked."""
         self.psi_prev = 0.0
@@ -255,6 +260,11 @@ class ContactTask:
             box = ((float(a), float(b), float(c)), (float(d), float(e), float(f)))
         self.region = DesiredRegion(region_margin, region_window, region_hysteresis, dt, box)
         self.reset()
+
+    @property
+    def carries_reference(self) -> bool:
+        """Whether the reference is carried on the leash (F2): lead moment on, K_ω = 0."""
+        return self._carry
 
     def reset(self) -> None:
         """Back to inactive: admittance zero, nothing locked."""

@@ -38,10 +38,11 @@ from phri_common.records import ContactState
 from phri_description.description import BASE_JOINTS
 from wholebody_controller.config import ControllerConfig
 from wholebody_controller.contact_task import TARGET, ContactTask, TaskOutput
+from wholebody_controller.fused import CompiledStep, supports
 from wholebody_controller.qp import QPBuilder, QPError, QPProblem, QPSolver, make_solver
 
 Array = NDArray[np.float64]
-
+_new_tuple = tuple.__new__  # QPProblem(...) without the NamedTuple's Python-level __new__
 
 
 class KinematicsModel(Protocol):
@@ -136,8 +137,20 @@ class WholeBodyController:
         self._robot_velocity_limits = np.asarray(kinematics.velocity_limits, dtype=np.float64)
         self._solver_override = solver
         self.config = ControllerConfig()
-        self.tasks: list[ContactTask] = []
+        self._tasks: list[ContactTask] = []
+        self._compiled: CompiledStep | None = None
+        self._rows_stale = False
         self.configure(config or ControllerConfig())
+
+    @property
+    def tasks(self) -> list[ContactTask]:
+        """The per-link tasks, config order, with their current state. Under the compiled step
+        the state lives in its rows: reading this copies it into the task objects, and the next
+        step takes the objects' state back (so changes made through them count)."""
+        if self._compiled is not None:
+            self._compiled.load(self._tasks)
+            self._rows_stale = True
+        return self._tasks
 
     def configure(self, config: ControllerConfig) -> None:
         """Apply a new configuration. Tasks whose settings are unchanged keep their state."""
@@ -176,8 +189,16 @@ class WholeBodyController:
         self.position_lower, self.position_upper = lower, upper
         self.velocity_upper = vmax
         self.velocity_lower = -vmax
-        self.tasks = tasks
+        self._tasks = tasks
         self.config = config
+        self._compiled = None
+        if config.kernel == "numba" and supports(self.kinematics):
+            limits = np.array([lower, upper, -vmax, vmax])
+            compiled = CompiledStep(tasks, self.kinematics,
+                                    limits, config.horizon, config.epsilon)
+            compiled.warm_up()  # compile or load now, not in the first control cycle
+            self._compiled = compiled
+        self._rows_stale = False
 
     def _build_tasks(self, config: ControllerConfig) -> list[ContactTask]:
         """One task per configured link; a task whose link settings and task globals are
@@ -202,8 +223,11 @@ class WholeBodyController:
 
     def reset(self) -> None:
         """Every task back to inactive (e.g. after stale input)."""
-        for task in self.tasks:
+        for task in self._tasks:
             task.reset()
+        if self._compiled is not None:
+            self._compiled.store(self._tasks)
+            self._rows_stale = False
 
     def step(self, q: Array, contacts: Mapping[str, ContactState]) -> StepResult:
         """One control cycle.
@@ -223,9 +247,11 @@ class WholeBodyController:
         # The sum is finite for every finite q short of overflow; the exact test runs only if not.
         if not isfinite(sum(q_floats)) and not all(map(isfinite, q_floats)):
             raise ValueError(f"configuration must be {self.n} finite numbers, got {q}")
+        yaw = q_floats[2]
+        if self._compiled is not None:
+            return self._step_compiled(self._compiled, q, yaw, contacts)
         kin = self.kinematics
         kin.update(q)
-        yaw = q_floats[2]
         c, s = cos(yaw), sin(yaw)
         link_pose = kin.link_pose_floats
         point_jacobian = kin.point_jacobian
@@ -257,12 +283,30 @@ class WholeBodyController:
         # Fresh (the result keeps it for its residual); np.dot: less call overhead than @.
         jacobian = np.dot(self._raw_jacobian, rotation)
         problem = self._builder.build(q, target, data[rows:, None], jacobian)
+        return self._solve(problem, yaw, tuple(outputs), target, jacobian)
+
+    def _step_compiled(self, compiled: CompiledStep, q: Array, yaw: float,
+                       contacts: Mapping[str, ContactState]) -> StepResult:
+        """:meth:`step` after the q check, by :mod:`~wholebody_controller.fused`."""
+        if self._rows_stale:
+            compiled.store(self._tasks)
+            self._rows_stale = False
+        outputs, target, jacobian, hessian, gradient, bounds, finite = compiled.step(q, contacts)
+        if not finite:
+            raise QPError("QP data is not finite")
+        lower, upper = bounds
+        problem = _new_tuple(QPProblem, (hessian, gradient, lower, upper))
+        return self._solve(problem, yaw, outputs, target, jacobian)
+
+    def _solve(self, problem: QPProblem, yaw: float, outputs: tuple[TaskOutput, ...],
+               target: Array, jacobian: Array) -> StepResult:
+        """Solve (23); the command u and its world-frame rates q̇."""
         command = self.solver.solve(problem)
         u = command.tolist()
         if not isfinite(sum(u)):
             raise QPError("non-finite command")
         u[0], u[1] = base_to_world(yaw, u[0], u[1])
-        return StepResult(command, np.array(u), tuple(outputs), problem, target, jacobian)
+        return StepResult(command, np.array(u), outputs, problem, target, jacobian)
 
 
 def _task_globals(config: ControllerConfig) -> tuple[object, ...]:

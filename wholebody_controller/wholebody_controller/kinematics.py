@@ -107,6 +107,12 @@ class RobotKinematics:
         mujoco.mj_comPos(self.model, self.data)  # mj_jac needs cdof and subtree_com
 
     @property
+    def dofs_are_q(self) -> bool:
+        """Whether the model's positions and DOFs are exactly q, in order (the default model):
+        MuJoCo's arrays then are q-indexed (the compiled step, :mod:`fused`, needs it)."""
+        return self._identity_q and self._identity_v
+
+    @property
     def q(self) -> FloatArray:
         """A copy of the configuration last passed to :meth:`update`."""
         return np.array(self._qpos[self._qadr])

@@ -16,6 +16,7 @@ from phri_common import paper
 from phri_common.params import ParamSpec
 from phri_description.description import SKIN_LINKS
 from wholebody_controller.config import (
+    KERNELS,
     ROBOT_VELOCITY_LIMITS,
     AdmittanceGains,
     ControllerConfig,
@@ -66,6 +67,8 @@ GLOBAL_PARAMS: list[ParamSpec] = [
               "follow a turning lead: moment of the contact force about the contact region's "
               "middle (F1) and a leashed reference (F2); false = the paper's task"),
     ParamSpec("solver", "daqp", "QP backend: daqp (exact, default) or osqp (warm-started)"),
+    ParamSpec("kernel", KERNELS[0], "how the tasks, Jacobians and QP of a step are computed: "
+              "numba (compiled, default) or python (the reference); same command to rounding"),
     ParamSpec("contact_timeout", 0.1, "contact state older than this → zero command", "s",
               1e-3, 10.0),
     ParamSpec("joint_state_timeout", 0.1, "joint state older than this → zero command", "s",
@@ -188,6 +191,10 @@ def config_from_values(
     solver = str(values["solver"])
     if solver not in ("daqp", "osqp"):
         raise ValueError(f"parameter 'solver' refused value {solver!r}: allowed daqp, osqp")
+    kernel = str(values["kernel"])
+    if kernel not in KERNELS:
+        raise ValueError(f"parameter 'kernel' refused value {kernel!r}: allowed "
+                         f"{', '.join(KERNELS)}")
     ranges = ()
     if bool(values["q_dance_enabled"]):
         ranges = dance_ranges(arm_joints, list(values["q_dance"]), float(values["q_dance_range"]))
@@ -207,6 +214,7 @@ def config_from_values(
         velocity_limits=tuple(float(v) for v in values["velocity_limits"]),
         joint_ranges=ranges,
         solver=solver,
+        kernel=kernel,
         safety=_safety_config(values),
         lead_moment=bool(values["lead_moment"]),
     )

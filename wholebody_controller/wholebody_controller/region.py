@@ -19,6 +19,8 @@ docs/wholebody_controller.md "Desired region") keep a still hand from producing 
 
 from __future__ import annotations
 
+from collections.abc import MutableSequence
+
 from wholebody_controller.so3 import Vec3
 
 Box = tuple[Vec3, Vec3]
@@ -97,15 +99,27 @@ class DesiredRegion:
         dlo, dhi = self.box
         if self.hysteresis == 0.0:
             return track_force(lo, hi, dlo, dhi)
-        h, engaged = self.hysteresis, self._engaged
-        mu = [0.0, 0.0, 0.0]
-        for k in range(3):
-            up, down = hi[k] - dhi[k], dlo[k] - lo[k]  # overshoot past the + and − face
-            for face, over, sign in ((2 * k, up, 1.0), (2 * k + 1, down, -1.0)):
-                if over <= 0.0:
-                    engaged[face] = False
-                elif over > h:
-                    engaged[face] = True
-                if engaged[face]:
-                    mu[k] += sign * over
-        return (mu[0], mu[1], mu[2])
+        return gated_track_force(lo, hi, dlo, dhi, self.hysteresis, self._engaged)
+
+
+def gated_track_force(lo: Vec3, hi: Vec3, desired_min: Vec3, desired_max: Vec3, h: float,
+                      engaged: MutableSequence[bool]) -> Vec3:
+    """μ (11) [m] of Ω_i = [lo, hi] against Ω_d, each face gated by the hysteresis ``h`` [m]
+    (module docstring); ``engaged`` (6: +x, −x, +y, −y, +z, −z) is the faces' trigger state,
+    updated in place. Straight-line code, so the compiled step can use it too."""
+    mu = [0.0, 0.0, 0.0]
+    for k in range(3):
+        up, down = hi[k] - desired_max[k], desired_min[k] - lo[k]  # past the + and − face
+        if up <= 0.0:
+            engaged[2 * k] = False
+        elif up > h:
+            engaged[2 * k] = True
+        if down <= 0.0:
+            engaged[2 * k + 1] = False
+        elif down > h:
+            engaged[2 * k + 1] = True
+        if engaged[2 * k]:
+            mu[k] += up
+        if engaged[2 * k + 1]:
+            mu[k] -= down
+    return (mu[0], mu[1], mu[2])

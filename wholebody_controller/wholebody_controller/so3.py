@@ -97,18 +97,21 @@ def log(rot: Mat9) -> Vec3:
 
 def _log_near_pi(rot: Mat9, theta: float, antisym: Vec3) -> Vec3:
     """``log(R)^∨`` for θ near π: ``(R + Rᵀ)/2 = cos θ I + (1 − cos θ) a aᵀ`` gives the axis a
-    from its largest diagonal entry; the sign is the one of the (tiny) antisymmetric part."""
+    from its largest diagonal entry (the first of equal ones); the sign is the one of the (tiny)
+    antisymmetric part. Straight-line code, so the compiled step can use it too."""
     r0, r1, r2, r3, r4, r5, r6, r7, r8 = rot
     cos_t = math.cos(theta)
     scale = 1.0 / (1.0 - cos_t)
-    outer = (
-        ((r0 - cos_t) * scale, 0.5 * (r1 + r3) * scale, 0.5 * (r2 + r6) * scale),
-        (0.5 * (r1 + r3) * scale, (r4 - cos_t) * scale, 0.5 * (r5 + r7) * scale),
-        (0.5 * (r2 + r6) * scale, 0.5 * (r5 + r7) * scale, (r8 - cos_t) * scale),
-    )
-    i = max(range(3), key=lambda k: outer[k][k])
-    norm = math.sqrt(max(outer[i][i], 1e-300))
-    ax, ay, az = (v / norm for v in outer[i])
+    xy, xz, yz = 0.5 * (r1 + r3) * scale, 0.5 * (r2 + r6) * scale, 0.5 * (r5 + r7) * scale
+    xx, yy, zz = (r0 - cos_t) * scale, (r4 - cos_t) * scale, (r8 - cos_t) * scale
+    if xx >= yy and xx >= zz:
+        col = (xx, xy, xz)
+    elif yy >= zz:
+        col = (xy, yy, yz)
+    else:
+        col = (xz, yz, zz)
+    norm = math.sqrt(max(max(xx, yy, zz), 1e-300))
+    ax, ay, az = col[0] / norm, col[1] / norm, col[2] / norm
     if ax * antisym[0] + ay * antisym[1] + az * antisym[2] < 0.0:
         ax, ay, az = -ax, -ay, -az
     return theta * ax, theta * ay, theta * az
