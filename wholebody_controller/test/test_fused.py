@@ -1,0 +1,240 @@
+"""The compiled control step (``kernel="numba"``, :mod:`wholebody_controller.fused`) against the
+Python step (``kernel="python"``, the reference) on the real robot's kinematics: randomized
+configurations and contact sequences covering every phase, every contact-safety state, the
+desired region's window and hysteresis, the lead moment and carried reference, user references
+and regions, priority locks and manual desired forces. Every task output, the QP data within
+1e-9, the command within 1e-7 (daqp's active-set tolerances, as in ``test_equivalence.py``), and
+the task objects' state after the run.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from wbc_fake_kinematics import FakeKinematics
+from wbc_rotations import exp_rotvec
+
+from phri_common.records import ContactState
+from wholebody_controller.config import (
+    CONTACT_CENTRING,
+    CONTACT_TRACKING,
+    SKIN_LINKS,
+    WALTZ,
+    WHOLE_BODY,
+    AdmittanceGains,
+    ControllerConfig,
+    LinkTaskConfig,
+    dance_ranges,
+)
+from wholebody_controller.contact_safety import Safety, SafetyConfig
+from wholebody_controller.contact_task import Phase
+from wholebody_controller.controller import StepResult, WholeBodyController
+from wholebody_controller.kinematics import RobotKinematics
+from wholebody_controller.parameters import PARAMS, config_from_values
+
+TOL = 1e-9
+QP_TOL = 1e-7
+Q0 = np.array([0.2, -0.1, 0.4, 0.3, -1.2, 1.5, -1.0, -1.57, 0.0,
+               -0.3, -1.9, -1.5, -1.0, 1.57, 0.0])
+CENTRE = np.array([-0.15, 0.0, 0.05])
+GAINS = [CONTACT_CENTRING, CONTACT_TRACKING, WHOLE_BODY, WALTZ,
+         AdmittanceGains((0.3, 0.5, 0.7, 0.2, 0.4, 0.6), (10.0, 30.0, 0.0, 5.0, 8.0, 60.0),
+                         (0.0, 20.0, 5.0, 0.0, 1.0, 3.0))]
+
+
+def close(a: object, b: object, what: str, tol: float = TOL) -> None:
+    np.testing.assert_allclose(np.asarray(a, dtype=float), np.asarray(b, dtype=float),
+                               rtol=tol, atol=tol, err_msg=what)
+
+
+def assert_same(fast: StepResult, ref: StepResult, k: int) -> None:
+    close(fast.command, ref.command, f"command, step {k}", QP_TOL)
+    for name in ("hessian", "gradient", "lower", "upper"):
+        close(getattr(fast.problem, name), getattr(ref.problem, name), f"{name}, step {k}")
+    for a, b in zip(fast.tasks, ref.tasks, strict=True):
+        what = f"{b.link}, step {k}"
+        assert (a.link, a.phase, a.in_contact, a.safety) == (
+            b.link, b.phase, b.in_contact, b.safety), what
+        assert type(a.phase) is Phase and type(a.safety) is Safety
+        close([a.psi, a.psi_raw], [b.psi, b.psi_raw], f"ψ {what}")
+        close(a.values, b.values, f"values {what}")
+    close(np.concatenate(fast.tracking_errors), np.concatenate(ref.tracking_errors),
+          f"tracking errors, step {k}", QP_TOL)
+
+
+def assert_same_task_state(fast: WholeBodyController, ref: WholeBodyController) -> None:
+    """The state the compiled rows hand back to the task objects equals the reference's."""
+    for a, b in zip(fast.tasks, ref.tasks, strict=True):
+        close(np.concatenate(a.admittance.state_f), np.concatenate(b.admittance.state_f),
+              f"admittance {b.config.link}")
+        ra, rb = a.life_cycle.reference, b.life_cycle.reference
+        assert (ra is None) == (rb is None), b.config.link
+        if ra is not None and rb is not None:
+            close([*ra[0], *ra[1]], [*rb[0], *rb[1]], f"reference {b.config.link}")
+        close(a.jacobian_point, b.jacobian_point, f"point {b.config.link}")
+        assert (a.guard.yielding, a.guard.transient_exceeded, a.regain.exhausted) == (
+            b.guard.yielding, b.guard.transient_exceeded, b.regain.exhausted)
+        close([a.guard.peak, a.regain.travel, a.regain.elapsed, a.life_cycle.psi_prev],
+              [b.guard.peak, b.regain.travel, b.regain.elapsed, b.life_cycle.psi_prev],
+              f"guard/regain/ψ {b.config.link}")
+        assert (a.region.box is None) == (b.region.box is None), b.config.link
+        if a.region.box is not None and b.region.box is not None:
+            close(a.region.box, b.region.box, f"Ω_d {b.config.link}")
+
+
+def touch_sequence(rng: np.random.Generator, length: int, force_scale: float,
+                   dt: float) -> list[dict[str, ContactState]]:
+    """Touches and releases per link: a centre that slides, a region that grows and moves,
+    force magnitudes from light to far past the limits."""
+    steps: list[dict[str, ContactState]] = [{} for _ in range(length)]
+    for link in SKIN_LINKS:
+        k = int(rng.integers(0, 6))
+        while k < length:
+            touch = int(rng.integers(3, 40))
+            force = rng.normal(size=3) * force_scale * rng.choice([0.05, 0.3, 1.0, 3.0])
+            torque = rng.normal(scale=0.5, size=3)
+            centre = CENTRE + 0.05 * rng.normal(size=3)
+            slide = rng.normal(scale=0.05, size=3) * dt
+            half = 0.005 + 0.03 * rng.random(3)
+            grow = 0.002 * rng.random(3)
+            for j in range(min(touch, length - k)):
+                c = centre + j * slide
+                w = half + j * grow * (j < 10)
+                f = force * (1.0 + 0.2 * np.sin(0.3 * j))
+                steps[k + j][link] = ContactState(link, k + j, True, c, f, torque, c - w, c + w,
+                                                  12)
+            k += touch + int(rng.integers(1, 60))
+    return steps
+
+
+@st.composite
+def configs(draw: st.DrawFn) -> ControllerConfig:
+    links = []
+    for link in SKIN_LINKS:
+        reference = None
+        if draw(st.integers(0, 5)) == 0:
+            rot = exp_rotvec(np.array(draw(st.lists(st.floats(-1, 1), min_size=3, max_size=3))))
+            reference = (*rot.ravel().tolist(), 0.1, -0.2, 0.9)
+        region = ((-0.3, -0.1, -0.1), (0.0, 0.1, 0.1)) if draw(st.integers(0, 5)) == 0 else None
+        limit = draw(st.sampled_from([None, 20.0, 60.0]))
+        links.append(LinkTaskConfig(
+            link, GAINS[draw(st.integers(0, len(GAINS) - 1))],
+            priority_lock=draw(st.sampled_from([None, None, None, 0.3, 1.0])),
+            desired_force=draw(st.sampled_from([(0.0, 0.0, 0.0), (0.0, -10.0, 0.0),
+                                                (4.0, 0.0, -2.0)])),
+            reference=reference, desired_region=region, force_limit=limit,
+            transient_force_limit=None if limit is None else 1.5 * limit))
+    return ControllerConfig(
+        links=tuple(links),
+        k_eta=draw(st.sampled_from([0.0, 200.0])),
+        b=draw(st.sampled_from([4.0, 40.0])),
+        rate_hz=draw(st.sampled_from([100.0, 500.0])),
+        region_window=draw(st.sampled_from([0.0, 0.05])),
+        region_hysteresis=draw(st.sampled_from([0.0, 0.0075])),
+        lead_moment=draw(st.booleans()),
+        safety=SafetyConfig(regain_distance=draw(st.sampled_from([0.15, 0.002])),
+                            regain_time=draw(st.sampled_from([2.0, 0.05]))),
+        joint_ranges=dance_ranges(RobotKinematics().joint_names[3:], list(Q0[3:]), 0.1)
+        if draw(st.booleans()) else (),
+    )
+
+
+def run_both(config: ControllerConfig, sequence: list[dict[str, ContactState]],
+             ) -> tuple[WholeBodyController, WholeBodyController, list[StepResult]]:
+    fast = WholeBodyController(RobotKinematics(), replace(config, kernel="numba"))
+    ref = WholeBodyController(RobotKinematics(), replace(config, kernel="python"))
+    assert fast._compiled is not None and ref._compiled is None
+    q = Q0.copy()
+    results = []
+    for k, contacts in enumerate(sequence):
+        a, b = fast.step(q, contacts), ref.step(q, contacts)
+        assert_same(a, b, k)
+        results.append(b)
+        q = q + config.dt * b.qdot  # the same motion on both sides
+    return fast, ref, results
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(configs(), st.integers(0, 2**31 - 1), st.sampled_from([5.0, 40.0]))
+def test_compiled_step_equals_python_step(config: ControllerConfig, seed: int,
+                                          force_scale: float) -> None:
+    rng = np.random.default_rng(seed)
+    sequence = touch_sequence(rng, 150, force_scale, config.dt)
+    fast, ref, _ = run_both(config, sequence)
+    assert_same_task_state(fast, ref)
+
+
+def test_every_phase_and_safety_state_is_compared() -> None:
+    """One fixed case that visits all phases and safety states (so the comparison covers
+    them): low force limits, a desired force that loses its contact, the waltz's lead."""
+    links = tuple(LinkTaskConfig(link, WALTZ, desired_force=(0.0, -10.0, 0.0),
+                                 force_limit=30.0, transient_force_limit=40.0)
+                  for link in SKIN_LINKS)
+    config = ControllerConfig(links=links, lead_moment=True, region_window=0.05,
+                              region_hysteresis=0.0075, rate_hz=500.0,
+                              safety=SafetyConfig(regain_time=0.1))
+    sequence = touch_sequence(np.random.default_rng(7), 600, 25.0, config.dt)
+    _, _, results = run_both(config, sequence)
+    phases = {task.phase for res in results for task in res.tasks}
+    safeties = {task.safety for res in results for task in res.tasks}
+    assert phases == set(Phase), phases
+    assert safeties == set(Safety), safeties
+
+
+def test_state_read_and_changed_through_the_tasks_carries_on() -> None:
+    """Reading ``tasks`` hands the compiled state to the objects; a reset through them and a
+    reconfigure that keeps the tasks are taken back by the next compiled step."""
+    config = ControllerConfig(lead_moment=True, region_hysteresis=0.0075)
+    sequence = touch_sequence(np.random.default_rng(11), 240, 10.0, config.dt)
+    fast = WholeBodyController(RobotKinematics(), config)
+    ref = WholeBodyController(RobotKinematics(), replace(config, kernel="python"))
+    q = Q0.copy()
+    for k, contacts in enumerate(sequence):
+        if k == 60:
+            assert_same_task_state(fast, ref)
+        if k == 120:
+            fast.tasks[1].reset()
+            ref.tasks[1].reset()
+        if k == 180:
+            fast.configure(replace(config, epsilon=0.2))
+            ref.configure(replace(config, epsilon=0.2, kernel="python"))
+        a, b = fast.step(q, contacts), ref.step(q, contacts)
+        assert_same(a, b, k)
+        q = q + config.dt * b.qdot
+    fast.reset()
+    ref.reset()
+    assert_same(fast.step(q, sequence[0]), ref.step(q, sequence[0]), -1)
+
+
+def test_switching_the_kernel_keeps_the_task_state() -> None:
+    config = ControllerConfig()
+    sequence = touch_sequence(np.random.default_rng(5), 200, 10.0, config.dt)
+    switching = WholeBodyController(RobotKinematics(), config)
+    ref = WholeBodyController(RobotKinematics(), replace(config, kernel="python"))
+    q = Q0.copy()
+    for k, contacts in enumerate(sequence):
+        if k % 50 == 25:
+            kernel = "python" if switching.config.kernel == "numba" else "numba"
+            switching.configure(replace(config, kernel=kernel))
+        a, b = switching.step(q, contacts), ref.step(q, contacts)
+        assert_same(a, b, k)
+        q = q + config.dt * b.qdot
+
+
+def test_kinematics_the_kernel_cannot_drive_fall_back_to_python() -> None:
+    ctl = WholeBodyController(FakeKinematics(), ControllerConfig(kernel="numba"))
+    assert ctl._compiled is None
+    ctl.step(np.zeros(15), {})
+
+
+def test_unknown_kernel_is_refused_naming_the_parameter() -> None:
+    with pytest.raises(ValueError, match="kernel refused value 'fortran'"):
+        ControllerConfig(kernel="fortran")
+    values = {spec.name: spec.default for spec in PARAMS}
+    values["kernel"] = "fortran"
+    with pytest.raises(ValueError, match="parameter 'kernel' refused value 'fortran'"):
+        config_from_values(values, [], RobotKinematics().joint_names[3:])
