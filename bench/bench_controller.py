@@ -3,11 +3,13 @@
 1. ``full step``: contact estimation of 3 links × 2,000 taxels (``set_forces`` per patch +
    ``estimate``) followed by :meth:`WholeBodyController.step` with all three links in contact
    (three admittances + life-cycles, kinematics update + three contact-centre Jacobians, QP build
-   and solve), for each QP backend; the same with 3 × 10,000 taxels; then the breakdown into
-   stages, the estimation with the numpy reference kernel (``kernel="numpy"``, the code before
-   the compiled one) for a same-run before/after, and the straightforward numpy reference step
-   (``wholebody_controller/test/
-   wbc_reference.py``, the implementation before the optimisation) for a same-load comparison.
+   and solve), for each QP backend; the same with 3 × 10,000 taxels; the controller step with
+   its Python kernel (``kernel="python"``, the reference before the compiled one) for a same-run
+   before/after; then the breakdown into stages (the compiled step's and the Python step's),
+   the estimation with the numpy reference kernel (``kernel="numpy"``, the code before the
+   compiled one) for a same-run before/after, and the straightforward numpy reference step
+   (``wholebody_controller/test/wbc_reference.py``, the implementation before the optimisation)
+   for a same-load comparison.
 2. ``mink``: ``mink.solve_ik`` on the same robot (same MuJoCo model, same joints) with three
    ``FrameTask``s on the same links, ``ConfigurationLimit`` and ``VelocityLimit``, with daqp and
    OSQP; timed per call including ``Configuration.update``.
@@ -133,8 +135,10 @@ def controller_cases(repeats: int) -> dict[str, Case]:
     skin = {n: SkinFrames(n) for n in (2_000, 10_000)}
     numpy_skin = {n: SkinFrames(n, kernel="numpy") for n in (2_000, 10_000)}
 
-    def stepper(solver: str, taxels: int | None, kernel: str = "numba") -> Case:
-        ctl = WholeBodyController(RobotKinematics(), ControllerConfig(solver=solver))
+    def stepper(solver: str, taxels: int | None, kernel: str = "numba",
+                step_kernel: str = "numba") -> Case:
+        ctl = WholeBodyController(RobotKinematics(),
+                                  ControllerConfig(solver=solver, kernel=step_kernel))
         state = {"q": Q_HOME.copy()}
         frames = skin if kernel == "numba" else numpy_skin
 
@@ -148,6 +152,8 @@ def controller_cases(repeats: int) -> dict[str, Case]:
     cases["full step: estimation 3×2,000 + controller, daqp"] = stepper("daqp", 2_000)
     cases["full step: estimation 3×2,000 + controller, osqp"] = stepper("osqp", 2_000)
     cases["full step: estimation 3×10,000 + controller, daqp"] = stepper("daqp", 10_000)
+    cases["full step, controller with the python kernel (before), 3×2,000"] = stepper(
+        "daqp", 2_000, step_kernel="python")
     cases["full step, estimation with the numpy kernel (before), 3×2,000"] = stepper(
         "daqp", 2_000, "numpy")
     cases["full step, estimation with the numpy kernel (before), 3×10,000"] = stepper(
@@ -157,10 +163,13 @@ def controller_cases(repeats: int) -> dict[str, Case]:
     cases["  contact estimation, 3 × 2,000 taxels, numpy kernel (before)"] = (
         numpy_skin[2_000].estimate)
     cases["  controller step (3 links in contact), daqp"] = stepper("daqp", None)
+    cases["  controller step, python kernel (before), daqp"] = stepper(
+        "daqp", None, step_kernel="python")
+    cases.update(compiled_breakdown(contact_seq))
 
-    # Breakdown of the controller step (daqp), stage by stage as step() runs them.
+    # Breakdown of the Python controller step (daqp), stage by stage as step() runs them.
     kin = RobotKinematics()
-    ctl = WholeBodyController(kin)
+    ctl = WholeBodyController(kin, ControllerConfig(kernel="python"))
     res = ctl.step(Q_HOME, contact_seq[0])
     points = [task.jacobian_point for task in ctl.tasks]
     # The bench's own buffers, shaped as the controller's (stacked 6×15 blocks, 15×15 rotation).
@@ -221,6 +230,25 @@ def controller_cases(repeats: int) -> dict[str, Case]:
 
     cases["  reference step (straightforward numpy), daqp"] = ref_step
     return cases
+
+
+def compiled_breakdown(contact_seq: list[dict[str, ContactState]]) -> dict[str, Case]:
+    """The compiled step's parts (``kernel="numba"``): MuJoCo calls + :func:`step_kernel`
+    (tasks, Jacobians, QP build) with its packing, then the daqp solve of its problem."""
+    ctl = WholeBodyController(RobotKinematics())
+    compiled = ctl._compiled
+    assert compiled is not None
+    res = ctl.step(Q_HOME, contact_seq[0])
+    solver = make_solver("daqp")
+
+    def kernel(k: int) -> None:
+        compiled.step(Q_HOME, contact_seq[k])
+
+    def solve(_k: int) -> None:
+        solver.solve(res.problem)
+
+    return {"    compiled: kinematics + tasks + Jacobians + QP build": kernel,
+            "    compiled: QP solve, daqp": solve}
 
 
 def mink_cases() -> dict[str, Case]:
