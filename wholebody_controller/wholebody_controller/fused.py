@@ -14,9 +14,11 @@ of :mod:`so3`, :mod:`linalg3`, :mod:`contact_task`, :mod:`region`, :mod:`followi
 the reference path). Only the bookkeeping of the task objects (their state) is mirrored, on one
 float row per link (layout ``S_*`` below), with the task parameters on another (``P_*``).
 
-Jacobians. MuJoCo gives the Jacobian of each link frame's origin ⁰p_γi (``mj_jacBody``); the
-kernel moves it to the contact centre, ``J_p(⁰p_η) = J_p(⁰p_γi) − [⁰R_i ᶦp_η]× J_ω`` (8), a rigid
-shift exact to rounding, then to the base-frame command u (``controller`` module docstring).
+Jacobians. MuJoCo's ``mj_kinematics`` gives the world frames of bodies and joints; the kernel
+forms the contact-centre Jacobian (8) from the joint axes and anchors of the link's chain (the
+columns ``mj_jac`` would give, without ``mj_comPos`` and three more calls), then turns it into
+the base-frame command u (``controller`` module docstring). Hinge and slide joints only (the
+robot's); another model runs the Python step (:func:`supports`).
 
 Cache: compiled with ``cache=True``; numba checks the time stamp of this file only, so after an
 edit of one of the compiled modules above, delete ``__pycache__/fused*.nbi|nbc``.
@@ -89,6 +91,7 @@ N_OUT = 40
 # Phase and Safety values (contact_task.Phase, contact_safety.Safety).
 _INACTIVE, _ACTIVATING, _ACTIVE, _DEACTIVATING = 0.0, 1.0, 2.0, 3.0
 _OK, _FADING, _YIELDING, _LOST = 0.0, 1.0, 2.0, 3.0
+_HINGE, _SLIDE = int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)
 
 
 @njit(cache=True, inline="always")
@@ -391,23 +394,46 @@ def _outputs(s: Array, p: Array, vel: tuple, w: tuple, mu_world: tuple, phase: f
 
 
 @njit(cache=True)
-def _jacobian(frame: Array, rot: tuple, point: tuple, c: float, s: float,
-              out: Array) -> None:  # pragma: no cover - compiled
-    """J_i of (8) in the command u: the frame-origin Jacobian ``frame`` (6×n, [linear; angular])
-    shifted to ⁰R_i ᶦp_η, ``J_p ← J_p + J_ω × r`` column-wise, then the base columns rotated by
-    the yaw (c, s) = (cos, sin) (``controller`` module docstring); written into ``out`` (6×n)."""
+def _jacobian(chain: NDArray[np.int64], xaxis: Array, xanchor: Array, rot: tuple, pos: tuple,
+              point: tuple, c: float, s: float, out: Array) -> None:  # pragma: no cover
+    """J_i of (8) in the command u, written into ``out`` (6×n, zeroed here).
+
+    The point ⁰p_η = ⁰R_i ᶦp_η + ⁰p_γi (6) moves with every joint between it and the world
+    (``chain`` rows: joint id, its DOF = column, MuJoCo type): a hinge of world axis a through
+    the anchor o adds ``[a × (⁰p_η − o); a]`` to its column, a slide ``[a; 0]`` — the columns
+    of MuJoCo's ``mj_jac``, from the joint frames ``mj_kinematics`` computed. Then the base
+    columns rotated by the yaw (c, s) = (cos, sin) (``controller`` module docstring).
+    """
     rx, ry, rz = rotate(rot, point)
-    n = frame.shape[1]
-    for j in range(n):
-        wx, wy, wz = frame[3, j], frame[4, j], frame[5, j]
-        out[0, j] = frame[0, j] + (wy * rz - wz * ry)
-        out[1, j] = frame[1, j] + (wz * rx - wx * rz)
-        out[2, j] = frame[2, j] + (wx * ry - wy * rx)
-        out[3, j], out[4, j], out[5, j] = wx, wy, wz
+    px, py, pz = rx + pos[0], ry + pos[1], rz + pos[2]
+    out[:, :] = 0.0
+    for row in range(chain.shape[0]):
+        joint, col, kind = chain[row, 0], chain[row, 1], chain[row, 2]
+        if joint < 0:
+            break
+        ax, ay, az = xaxis[joint, 0], xaxis[joint, 1], xaxis[joint, 2]
+        if kind == _HINGE:
+            dx, dy, dz = px - xanchor[joint, 0], py - xanchor[joint, 1], pz - xanchor[joint, 2]
+            out[0, col], out[1, col], out[2, col] = ay * dz - az * dy, az * dx - ax * dz, \
+                ax * dy - ay * dx
+            out[3, col], out[4, col], out[5, col] = ax, ay, az
+        else:
+            out[0, col], out[1, col], out[2, col] = ax, ay, az
     for r in range(6):
         a, b = out[r, 0], out[r, 1]
         out[r, 0] = a * c + b * s
         out[r, 1] = a * -s + b * c
+
+
+def joint_chain(model: mujoco.MjModel, body: int) -> list[tuple[int, int, int]]:
+    """(joint id, DOF, type) of every joint between ``body`` and the world, body first."""
+    chain = []
+    while body > 0:
+        first = int(model.body_jntadr[body])
+        for joint in range(first, first + int(model.body_jntnum[body])):
+            chain.append((joint, int(model.jnt_dofadr[joint]), int(model.jnt_type[joint])))
+        body = int(model.body_parentid[body])
+    return chain
 
 
 @njit(cache=True)
@@ -445,8 +471,11 @@ def _build_qp(jacobian: Array, target: Array, weights: Array, q: Array, limits: 
 
 @njit(cache=True)
 def step_kernel(state: Array, params: Array, phi_gamma: Array, contacts: Array, xmat: Array,
-                xpos: Array, bodies: NDArray[np.int64], frames: Array, q: Array,
-                limits: Array, horizon: float, epsilon: float) -> tuple:  # pragma: no cover
+                xpos: Array, bodies: NDArray[np.int64], chains: NDArray[np.int64],
+                xaxis: Array, xanchor: Array, q: Array,
+                limits: Array, horizon: float, epsilon: float, outputs: Array, target: Array,
+                jacobian: Array, hessian: Array, gradient: Array,
+                bounds: Array) -> bool:  # pragma: no cover - compiled
     """One control step of every link after the kinematics: the tasks, their Jacobians and (23).
 
     Args:
@@ -455,21 +484,21 @@ def step_kernel(state: Array, params: Array, phi_gamma: Array, contacts: Array, 
         contacts: (k, :data:`N_CONTACT`) this cycle's contact rows (link frame).
         xmat, xpos: MuJoCo's world frames of the bodies (nbody×9, nbody×3).
         bodies: body id of each link.
-        frames: (k, 6, n) Jacobians of the link frames' origins, q coordinates.
+        chains: (k, L, 3) each link's :func:`joint_chain`, padded with −1 rows.
+        xaxis, xanchor: MuJoCo's world joint axes and anchors (njnt×3).
         q: configuration (n) [m, rad]; limits: (4, n) q_l, q_u, q̇_l, q̇_u; horizon h [s];
             epsilon ε of (23).
+        outputs, target, jacobian, hessian, gradient, bounds: written: the tasks' rows
+            (k, N_OUT), b (6k), J in u (6k×n), H (n×n), g (n), bounds (2×n) of (23). Arrays the
+            caller allocates: numba returns arrays at a cost of about a µs each.
 
     Returns:
-        ``(outputs (k, N_OUT), target (6k), jacobian (6k×n), hessian, gradient, bounds (2×n),
-        finite)``: fresh arrays.
+        Whether H's diagonal and g are finite.
     """
-    k, n = state.shape[0], q.shape[0]
+    k = state.shape[0]
     yaw = q[2]
     c, s = math.cos(yaw), math.sin(yaw)
-    outputs = np.empty((k, N_OUT))
-    target = np.empty(6 * k)
     weights = np.empty(6 * k)
-    jacobian = np.empty((6 * k, n))
     for i in range(k):
         body = bodies[i]
         rot = _m9(xmat[body], 0)
@@ -480,13 +509,10 @@ def step_kernel(state: Array, params: Array, phi_gamma: Array, contacts: Array, 
         for r in range(6):
             target[6 * i + r] = out[r]
             weights[6 * i + r] = psi2
-        _jacobian(frames[i], rot, _v3(state[i], S_POINT), c, s, jacobian[6 * i : 6 * i + 6])
-    hessian = np.empty((n, n))
-    gradient = np.empty(n)
-    bounds = np.empty((2, n))
-    finite = _build_qp(jacobian, target, weights, q, limits, horizon, epsilon, hessian,
-                       gradient, bounds)
-    return outputs, target, jacobian, hessian, gradient, bounds, finite
+        _jacobian(chains[i], xaxis, xanchor, rot, pos, _v3(state[i], S_POINT), c, s,
+                  jacobian[6 * i : 6 * i + 6])
+    return _build_qp(jacobian, target, weights, q, limits, horizon, epsilon, hessian,
+                     gradient, bounds)
 
 
 # -- the Python side: rows from the task objects and back, the MuJoCo calls, one step -------------
@@ -576,7 +602,10 @@ def supports(kinematics: object) -> bool:
     """Whether the compiled step can drive ``kinematics``: a :class:`RobotKinematics` whose
     MuJoCo positions and DOFs are q itself (the default model). Otherwise the controller runs
     the Python step."""
-    return isinstance(kinematics, RobotKinematics) and kinematics.dofs_are_q
+    if not isinstance(kinematics, RobotKinematics) or not kinematics.dofs_are_q:
+        return False
+    kinds = kinematics.model.jnt_type
+    return bool(np.all((kinds == _HINGE) | (kinds == _SLIDE)))
 
 
 class CompiledStep:
@@ -600,13 +629,17 @@ class CompiledStep:
                                   ).reshape(k, 12, 18)
         self.state = np.zeros((k, N_STATE))
         self.bodies = np.array([kinematics.body_id(link) for link in self.links], dtype=np.int64)
-        self.frames = np.zeros((k, 6, n))
+        model = kinematics.model
+        chains = [joint_chain(model, int(body)) for body in self.bodies]
+        self.chains = np.full((k, max(map(len, chains), default=0), 3), -1, dtype=np.int64)
+        for i, chain in enumerate(chains):
+            self.chains[i, : len(chain)] = chain
+        self._n, self._rows = n, 6 * k
+        self._outputs = np.zeros((k, N_OUT))
         self.limits = np.ascontiguousarray(limits, dtype=np.float64)
         self.horizon, self.epsilon = float(horizon), float(epsilon)
         self._model, self._data = kinematics.model, kinematics.data
         self._qpos = kinematics.data.qpos
-        self._jacobian_views = [(self.frames[i, :3], self.frames[i, 3:], int(body))
-                                for i, body in enumerate(self.bodies)]
         self.store(tasks)
 
     def store(self, tasks: Sequence[ContactTask]) -> None:
@@ -621,10 +654,12 @@ class CompiledStep:
 
     def warm_up(self) -> None:
         """Compile (or load from the cache) and run the kernel once on scratch copies."""
-        step_kernel(self.state.copy(), self.params, self.phi_gamma,
-                    np.zeros((len(self.links), N_CONTACT)), self._data.xmat, self._data.xpos,
-                    self.bodies, self.frames.copy(), np.zeros(self.frames.shape[2]),
-                    self.limits, self.horizon, self.epsilon)
+        k, n, data = len(self.links), self._n, self._data
+        step_kernel(self.state.copy(), self.params, self.phi_gamma, np.zeros((k, N_CONTACT)),
+                    data.xmat, data.xpos, self.bodies, self.chains, data.xaxis,
+                    data.xanchor, np.zeros(n), self.limits, self.horizon, self.epsilon,
+                    np.empty((k, N_OUT)), np.empty(6 * k), np.empty((6 * k, n)),
+                    np.empty((n, n)), np.empty(n), np.empty((2, n)))
 
     def step(self, q: Array, contacts: Mapping[str, ContactState]) -> tuple:
         """Kinematics at q (finite, checked by the caller) and :func:`step_kernel`.
@@ -635,10 +670,6 @@ class CompiledStep:
         model, data = self._model, self._data
         self._qpos[:] = q
         mujoco.mj_kinematics(model, data)
-        mujoco.mj_comPos(model, data)  # mj_jacBody needs cdof and subtree_com
-        jac_body = mujoco.mj_jacBody
-        for jac_p, jac_r, body in self._jacobian_views:
-            jac_body(model, data, jac_p, jac_r, body)
         rows = []
         touched = []
         get = contacts.get
@@ -651,9 +682,14 @@ class CompiledStep:
             rows.append([1.0, *c.center.tolist(), *c.force.tolist(), *c.torque.tolist(),
                          *c.region_min.tolist(), *c.region_max.tolist()])
             touched.append(True)
-        outputs, target, jacobian, hessian, gradient, bounds, finite = step_kernel(
+        # Fresh arrays where the result keeps them (StepResult, QPProblem); ``outputs`` is scratch.
+        empty, n, outputs = np.empty, self._n, self._outputs
+        target, jacobian = empty(self._rows), empty((self._rows, n))
+        hessian, gradient, bounds = empty((n, n)), empty(n), empty((2, n))
+        finite = step_kernel(
             self.state, self.params, self.phi_gamma, np.array(rows), data.xmat, data.xpos,
-            self.bodies, self.frames, q, self.limits, self.horizon, self.epsilon)
+            self.bodies, self.chains, data.xaxis, data.xanchor, q, self.limits, self.horizon,
+            self.epsilon, outputs, target, jacobian, hessian, gradient, bounds)
         tasks = tuple(
             _make_output((link, _PHASES[int(row[O_PHASE])], row[O_PSI], row[O_PSI_RAW], hit,
                           tuple(row[:O_PHASE]), _SAFETIES[int(row[O_SAFETY])]))
