@@ -42,7 +42,6 @@ from wholebody_controller.fused import CompiledStep, supports
 from wholebody_controller.qp import QPBuilder, QPError, QPProblem, QPSolver, make_solver
 
 Array = NDArray[np.float64]
-_new_tuple = tuple.__new__  # QPProblem(...) without the NamedTuple's Python-level __new__
 
 
 class KinematicsModel(Protocol):
@@ -291,11 +290,9 @@ class WholeBodyController:
         if self._rows_stale:
             compiled.store(self._tasks)
             self._rows_stale = False
-        outputs, target, jacobian, hessian, gradient, bounds, finite = compiled.step(q, contacts)
+        outputs, target, jacobian, problem, finite = compiled.step(q, contacts)
         if not finite:
             raise QPError("QP data is not finite")
-        lower, upper = bounds
-        problem = _new_tuple(QPProblem, (hessian, gradient, lower, upper))
         return self._solve(problem, yaw, outputs, target, jacobian)
 
     def _solve(self, problem: QPProblem, yaw: float, outputs: tuple[TaskOutput, ...],

@@ -53,6 +53,7 @@ from wholebody_controller.contact_task import (
 from wholebody_controller.following import lead_moment, leash_reference
 from wholebody_controller.kinematics import RobotKinematics
 from wholebody_controller.linalg3 import rotate
+from wholebody_controller.qp import QPProblem
 from wholebody_controller.region import gated_track_force, grow_box, track_force
 
 Array = NDArray[np.float64]
@@ -439,7 +440,7 @@ def joint_chain(model: mujoco.MjModel, body: int) -> list[tuple[int, int, int]]:
 @njit(cache=True)
 def _build_qp(jacobian: Array, target: Array, weights: Array, q: Array, limits: Array,
               horizon: float, epsilon: float, hessian: Array, gradient: Array,
-              bounds: Array) -> bool:  # pragma: no cover - compiled
+              lower: Array, upper: Array) -> bool:  # pragma: no cover - compiled
     """(23) as :meth:`QPBuilder.build`: ``H = Jᵀ (2Ψ J) + 2ε I``, ``g = −(2Ψ J)ᵀ b`` and the
     bounds (22) ``clip((q_l,u − q)/h, q̇_l, q̇_u)`` from ``limits`` (4×n: q_l, q_u, q̇_l, q̇_u);
     False where H's diagonal or g is not finite."""
@@ -462,10 +463,10 @@ def _build_qp(jacobian: Array, target: Array, weights: Array, q: Array, limits: 
             acc += target[r] * weighted[r, i]
         gradient[i] = -acc
         check += hessian[i, i] + gradient[i]
-        for side in range(2):
-            bound = (limits[side, i] - q[i]) / horizon
-            bound = max(bound, limits[2, i])
-            bounds[side, i] = min(bound, limits[3, i])
+        bound = max((limits[0, i] - q[i]) / horizon, limits[2, i])
+        lower[i] = min(bound, limits[3, i])
+        bound = max((limits[1, i] - q[i]) / horizon, limits[2, i])
+        upper[i] = min(bound, limits[3, i])
     return math.isfinite(check)
 
 
@@ -475,22 +476,22 @@ def step_kernel(state: Array, params: Array, phi_gamma: Array, contacts: Array, 
                 xaxis: Array, xanchor: Array, q: Array,
                 limits: Array, horizon: float, epsilon: float, outputs: Array, target: Array,
                 jacobian: Array, hessian: Array, gradient: Array,
-                bounds: Array) -> bool:  # pragma: no cover - compiled
+                lower: Array, upper: Array) -> bool:  # pragma: no cover - compiled
     """One control step of every link after the kinematics: the tasks, their Jacobians and (23).
 
     Args:
         state, params: (k, :data:`N_STATE`), (k, :data:`N_PARAM`) task rows (state updated).
         phi_gamma: (k, 12, 18) ``[Φ Γ]`` of each admittance (13).
-        contacts: (k, :data:`N_CONTACT`) this cycle's contact rows (link frame).
+        contacts: this cycle's contact rows (link frame), :data:`N_CONTACT` floats per link.
         xmat, xpos: MuJoCo's world frames of the bodies (nbody×9, nbody×3).
         bodies: body id of each link.
         chains: (k, L, 3) each link's :func:`joint_chain`, padded with −1 rows.
         xaxis, xanchor: MuJoCo's world joint axes and anchors (njnt×3).
         q: configuration (n) [m, rad]; limits: (4, n) q_l, q_u, q̇_l, q̇_u; horizon h [s];
             epsilon ε of (23).
-        outputs, target, jacobian, hessian, gradient, bounds: written: the tasks' rows
-            (k, N_OUT), b (6k), J in u (6k×n), H (n×n), g (n), bounds (2×n) of (23). Arrays the
-            caller allocates: numba returns arrays at a cost of about a µs each.
+        outputs, target, jacobian, hessian, gradient, lower, upper: written: the tasks' rows
+            (k, N_OUT), b (6k), J in u (6k×n), H (n×n), g (n), the bounds (n each) of (23).
+            The caller allocates them: numba returns arrays at a cost of about a µs each.
 
     Returns:
         Whether H's diagonal and g are finite.
@@ -504,7 +505,8 @@ def step_kernel(state: Array, params: Array, phi_gamma: Array, contacts: Array, 
         rot = _m9(xmat[body], 0)
         pos = _v3(xpos[body], 0)
         out = outputs[i]
-        _task_step(state[i], params[i], phi_gamma[i], contacts[i], rot, pos, yaw, out)
+        _task_step(state[i], params[i], phi_gamma[i],
+                   contacts[N_CONTACT * i : N_CONTACT * (i + 1)], rot, pos, yaw, out)
         psi2 = 2.0 * out[O_PSI]
         for r in range(6):
             target[6 * i + r] = out[r]
@@ -512,7 +514,7 @@ def step_kernel(state: Array, params: Array, phi_gamma: Array, contacts: Array, 
         _jacobian(chains[i], xaxis, xanchor, rot, pos, _v3(state[i], S_POINT), c, s,
                   jacobian[6 * i : 6 * i + 6])
     return _build_qp(jacobian, target, weights, q, limits, horizon, epsilon, hessian,
-                     gradient, bounds)
+                     gradient, lower, upper)
 
 
 # -- the Python side: rows from the task objects and back, the MuJoCo calls, one step -------------
@@ -596,6 +598,7 @@ _PHASES = tuple(Phase)
 _SAFETIES = tuple(Safety)
 _NO_CONTACT = [0.0] * N_CONTACT
 _make_output = TaskOutput._make
+_new_tuple = tuple.__new__  # QPProblem(...) without the NamedTuple's Python-level __new__
 
 
 def supports(kinematics: object) -> bool:
@@ -655,43 +658,48 @@ class CompiledStep:
     def warm_up(self) -> None:
         """Compile (or load from the cache) and run the kernel once on scratch copies."""
         k, n, data = len(self.links), self._n, self._data
-        step_kernel(self.state.copy(), self.params, self.phi_gamma, np.zeros((k, N_CONTACT)),
+        step_kernel(self.state.copy(), self.params, self.phi_gamma, np.zeros(k * N_CONTACT),
                     data.xmat, data.xpos, self.bodies, self.chains, data.xaxis,
                     data.xanchor, np.zeros(n), self.limits, self.horizon, self.epsilon,
                     np.empty((k, N_OUT)), np.empty(6 * k), np.empty((6 * k, n)),
-                    np.empty((n, n)), np.empty(n), np.empty((2, n)))
+                    np.empty((n, n)), np.empty(n), np.empty(n), np.empty(n))
 
     def step(self, q: Array, contacts: Mapping[str, ContactState]) -> tuple:
         """Kinematics at q (finite, checked by the caller) and :func:`step_kernel`.
 
         Returns:
-            ``(task outputs, target, jacobian, hessian, gradient, bounds, finite)``.
+            ``(task outputs, target, jacobian, QP (23), finite)``.
         """
         model, data = self._model, self._data
         self._qpos[:] = q
         mujoco.mj_kinematics(model, data)
-        rows = []
+        rows: list[float] = []
         touched = []
         get = contacts.get
         for link in self.links:
             c = get(link)
             if c is None or not c.in_contact:
-                rows.append(_NO_CONTACT)
+                rows += _NO_CONTACT
                 touched.append(False)
                 continue
-            rows.append([1.0, *c.center.tolist(), *c.force.tolist(), *c.torque.tolist(),
-                         *c.region_min.tolist(), *c.region_max.tolist()])
+            rows.append(1.0)
+            rows += c.center.tolist()
+            rows += c.force.tolist()
+            rows += c.torque.tolist()
+            rows += c.region_min.tolist()
+            rows += c.region_max.tolist()
             touched.append(True)
         # Fresh arrays where the result keeps them (StepResult, QPProblem); ``outputs`` is scratch.
         empty, n, outputs = np.empty, self._n, self._outputs
         target, jacobian = empty(self._rows), empty((self._rows, n))
-        hessian, gradient, bounds = empty((n, n)), empty(n), empty((2, n))
+        hessian, gradient, lower, upper = empty((n, n)), empty(n), empty(n), empty(n)
         finite = step_kernel(
             self.state, self.params, self.phi_gamma, np.array(rows), data.xmat, data.xpos,
             self.bodies, self.chains, data.xaxis, data.xanchor, q, self.limits, self.horizon,
-            self.epsilon, outputs, target, jacobian, hessian, gradient, bounds)
+            self.epsilon, outputs, target, jacobian, hessian, gradient, lower, upper)
         tasks = tuple(
             _make_output((link, _PHASES[int(row[O_PHASE])], row[O_PSI], row[O_PSI_RAW], hit,
                           tuple(row[:O_PHASE]), _SAFETIES[int(row[O_SAFETY])]))
             for link, row, hit in zip(self.links, outputs.tolist(), touched, strict=True))
-        return tasks, target, jacobian, hessian, gradient, bounds, finite
+        problem = _new_tuple(QPProblem, (hessian, gradient, lower, upper))
+        return tasks, target, jacobian, problem, finite
