@@ -445,23 +445,22 @@ def _build_qp(jacobian: Array, target: Array, weights: Array, q: Array, limits: 
     bounds (22) ``clip((q_l,u − q)/h, q̇_l, q̇_u)`` from ``limits`` (4×n: q_l, q_u, q̇_l, q̇_u);
     False where H's diagonal or g is not finite."""
     rows, n = jacobian.shape
-    weighted = np.empty((rows, n))
-    for r in range(rows):
-        for j in range(n):
-            weighted[r, j] = jacobian[r, j] * weights[r]
+    hessian[:, :] = 0.0
+    gradient[:] = 0.0
+    for r in range(rows):  # row by row: contiguous, and a link's zero columns are skipped
+        w, b = weights[r], target[r]
+        for i in range(n):
+            a = w * jacobian[r, i]
+            gradient[i] -= b * a
+            if a == 0.0:
+                continue
+            for j in range(i, n):
+                hessian[i, j] += a * jacobian[r, j]
     check = 0.0
     for i in range(n):
-        for j in range(i, n):
-            acc = 0.0
-            for r in range(rows):
-                acc += jacobian[r, i] * weighted[r, j]
-            hessian[i, j] = acc
-            hessian[j, i] = acc
+        for j in range(i + 1, n):
+            hessian[j, i] = hessian[i, j]
         hessian[i, i] += 2.0 * epsilon
-        acc = 0.0
-        for r in range(rows):
-            acc += target[r] * weighted[r, i]
-        gradient[i] = -acc
         check += hessian[i, i] + gradient[i]
         bound = max((limits[0, i] - q[i]) / horizon, limits[2, i])
         lower[i] = min(bound, limits[3, i])
