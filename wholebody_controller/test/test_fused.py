@@ -35,6 +35,7 @@ from wholebody_controller.contact_task import Phase
 from wholebody_controller.controller import StepResult, WholeBodyController
 from wholebody_controller.kinematics import RobotKinematics
 from wholebody_controller.parameters import PARAMS, config_from_values
+from wholebody_controller.qp import QPError
 
 TOL = 1e-9
 QP_TOL = 1e-7
@@ -238,3 +239,15 @@ def test_unknown_kernel_is_refused_naming_the_parameter() -> None:
     values["kernel"] = "fortran"
     with pytest.raises(ValueError, match="parameter 'kernel' refused value 'fortran'"):
         config_from_values(values, [], RobotKinematics().joint_names[3:])
+
+
+@pytest.mark.parametrize("kernel", ["numba", "python"])
+def test_non_finite_qp_data_raises_on_both_kernels(kernel: str) -> None:
+    """A contact centre so far out that H overflows is refused alike (QPError, no command)."""
+    ctl = WholeBodyController(RobotKinematics(), ControllerConfig(kernel=kernel))
+    link = SKIN_LINKS[0]
+    far = np.array([1e200, 0.0, 0.0])
+    state = ContactState(link, 0, True, far, np.array([1.0, 1.0, 0.0]), np.zeros(3), far - 0.01,
+                         far + 0.01, 5)
+    with np.errstate(over="ignore"), pytest.raises(QPError, match="not finite"):
+        ctl.step(Q0, {link: state})
