@@ -20,14 +20,20 @@ columns ``mj_jac`` would give, without ``mj_comPos`` and three more calls), then
 the base-frame command u (``controller`` module docstring). Hinge and slide joints only (the
 robot's); another model runs the Python step (:func:`supports`).
 
-Cache: compiled with ``cache=True``; numba checks the time stamp of this file only, so after an
-edit of one of the compiled modules above, delete ``__pycache__/fused*.nbi|nbc``.
+Cache: compiled with ``cache=True`` (the machine code is stored next to this module and loaded
+by later processes: a controller configures in well under a second once it has run once, about
+20 s the first time; ``configure`` warms it up, never the first control cycle). numba checks the
+time stamp of this file only, not of the modules whose functions it compiles in, so
+:func:`_drop_stale_cache` deletes this module's cache whenever their source changed.
 """
 
 from __future__ import annotations
 
+import hashlib
+import inspect
 import math
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -702,3 +708,24 @@ class CompiledStep:
             for link, row, hit in zip(self.links, outputs.tolist(), touched, strict=True))
         problem = _new_tuple(QPProblem, (hessian, gradient, lower, upper))
         return tasks, target, jacobian, problem, finite
+
+
+def _drop_stale_cache() -> None:
+    """Delete this module's compiled cache if the compiled-in modules' source changed since it
+    was written (fingerprint in ``fused.sources``, next to the cache)."""
+    try:
+        # numba's cache folder for this file
+        folder = Path(step_kernel._cache._cache_path)  # type: ignore[attr-defined]
+        modules = (so3, linalg3, contact_task, region, following, contact_safety, planar)
+        digest = hashlib.sha256(b"".join(inspect.getsource(m).encode() for m in modules))
+        stamp = folder / "fused.sources"
+        if stamp.exists() and stamp.read_text() == digest.hexdigest():
+            return
+        for path in folder.glob("fused.*.nb[ic]"):
+            path.unlink(missing_ok=True)
+        stamp.write_text(digest.hexdigest())
+    except (OSError, AttributeError):  # read-only install, or a numba without this layout:
+        pass  # numba then recompiles in memory or keeps its own rules
+
+
+_drop_stale_cache()
