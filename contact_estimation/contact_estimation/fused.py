@@ -5,9 +5,9 @@ tests' oracle, ``test_fused.py``), computed when a frame arrives instead of at e
 
 * :func:`take_frame` (per patch frame, from ``set_forces``/``update``): one vectorised pass gives
   the range test's ‖f‖² [N²] and the stuck-skin comparison with the stored frame
-  (:func:`norm2_and_unchanged`); a frame within the range that changed is then stored and its
-  patch's sums computed (:func:`patch_sums`) in a second pass, which reads the geometry rows
-  of contacting taxels only. A refused or unchanged frame writes nothing.
+  and the span of taxels over σ_t (:func:`scan_frame`); a frame within the range that changed is
+  then stored and its patch's sums computed (:func:`patch_sums`) over that span, reading the
+  geometry rows of contacting taxels only. A refused or unchanged frame writes nothing.
 * :func:`patch_sums`: for every taxel with force F > σ_t [N] it adds the geometry row (module
   docstring of :mod:`contact_estimation.estimator`) ``[p, −ω n, −ω (p × n)(, ω p, ω)]``, the
   force-dependent rows multiplied by F, and widens the patch's box of positions p [m].
@@ -35,27 +35,36 @@ STATE_WIDTH = 15
 
 
 @njit(cache=True, nogil=True, fastmath={"reassoc"})
-def norm2_and_unchanged(forces: NDArray[np.floating],
-                        previous: NDArray[np.float64]) -> tuple[float, bool]:  # pragma: no cover
-    """One pass over a new frame's forces [N]: ``(‖f‖² [N²], f == previous element-wise)``.
+def scan_frame(forces: NDArray[np.floating], previous: NDArray[np.float64],
+               threshold: float) -> tuple[float, bool, int, int]:  # pragma: no cover
+    """One pass over a new frame's forces F [N]: ``(‖F‖² [N²], F == previous element-wise,
+    first, last)``, ``first`` … ``last`` the span of taxels with F > σ_t = ``threshold`` [N]
+    (``first > last`` when there is none).
 
-    The same ‖f‖² as :func:`contact_estimation.estimator.check_forces` (which runs whenever it
+    The same ‖F‖² as :func:`contact_estimation.estimator.check_forces` (which runs whenever it
     exceeds the range, to name the bad value), summed in any order (``reassoc``: vectorised;
     NaN and Inf still propagate), and the same comparison as the stuck detector's
-    ``np.array_equal``, without a second pass over the arrays.
+    ``np.array_equal``, without a second pass over the arrays; the span lets the sums skip
+    the untouched taxels before and after the contact.
     """
+    n = forces.shape[0]
     norm2 = 0.0
     differs = False
-    for j in range(forces.shape[0]):
+    first, last = n, -1
+    for j in range(n):
         f = forces[j]
         norm2 += f * f
         differs |= f != previous[j]
-    return norm2, not differs
+        hot = f > threshold
+        first = min(first, j if hot else n)
+        last = max(last, j if hot else -1)
+    return norm2, not differs, first, last
 
 
 @njit(cache=True, nogil=True)
 def patch_sums(forces: NDArray[np.float64], rows_t: NDArray[np.float64], c0: int,
-               threshold: float, out: NDArray[np.float64]) -> None:  # pragma: no cover
+               threshold: float, out: NDArray[np.float64], start: int = 0,
+               stop: int = -1) -> None:  # pragma: no cover
     """Sums of one patch (taxels ``c0`` … ``c0 + len(forces) − 1`` of ``rows_t``) into ``out``.
 
     Args:
@@ -63,6 +72,8 @@ def patch_sums(forces: NDArray[np.float64], rows_t: NDArray[np.float64], c0: int
         rows_t: geometry rows per taxel (N, R), R = 9 or 13, columns as in the estimator.
         c0: the patch's first taxel in ``rows_t``.
         threshold: σ_t [N]; a taxel counts when F > σ_t (a NaN never does).
+        start, stop: only taxels ``start`` … ``stop − 1`` of the patch are read (all of them
+            by default): the caller knows that no other taxel is over σ_t.
         out: R + 7 columns, ``[Σ row (force rows × F), min p (3), max p (3), count]``; without a
             contacting taxel zeros, +inf / −inf bounds and count 0.
     """
@@ -73,7 +84,7 @@ def patch_sums(forces: NDArray[np.float64], rows_t: NDArray[np.float64], c0: int
     lx = ly = lz = np.inf
     hx = hy = hz = -np.inf
     count = 0
-    for j in range(n):
+    for j in range(start, n if stop < 0 else stop):
         force = forces[j]
         if not force > threshold:
             continue
@@ -120,11 +131,11 @@ def take_frame(forces: NDArray[np.floating], stored: NDArray[np.float64],
     """
     n = forces.shape[0]
     previous = stored[c0:c0 + n]
-    norm2, unchanged = norm2_and_unchanged(forces, previous)
+    norm2, unchanged, first, last = scan_frame(forces, previous, threshold)
     if norm2 <= limit2 and not unchanged:
         for j in range(n):
             previous[j] = forces[j]
-        patch_sums(previous, rows_t, c0, threshold, table[row])
+        patch_sums(previous, rows_t, c0, threshold, table[row], first, max(first, last + 1))
     return norm2, unchanged
 
 

@@ -97,29 +97,33 @@ def test_unknown_kernel_is_refused_with_the_allowed_values() -> None:
 @settings(max_examples=50, deadline=None, derandomize=True)
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 500), same=st.booleans(),
        float32=st.booleans())
-def test_norm2_and_unchanged_match_the_numpy_checks(seed: int, n: int, same: bool,
-                                                    float32: bool) -> None:
-    from contact_estimation.fused import norm2_and_unchanged
+def test_scan_frame_matches_the_numpy_checks(seed: int, n: int, same: bool,
+                                             float32: bool) -> None:
+    from contact_estimation.fused import scan_frame
 
     rng = np.random.default_rng(seed)
     forces = rng.uniform(-30.0, 30.0, n).astype(np.float32 if float32 else np.float64)
+    forces[rng.random(n) < 0.5] = 0.0
     previous = forces.astype(np.float64)
     if not same:
         previous[rng.integers(n)] += 1e-3
-    norm2, unchanged = norm2_and_unchanged(forces, previous)
+    threshold = float(rng.choice([0.0, 10.0, 29.0, 40.0]))
+    norm2, unchanged, first, last = scan_frame(forces, previous, threshold)
     # The reference range check's ‖f‖² (its dot product rounds in the array's precision).
     assert norm2 == pytest.approx(check_forces(forces, 1e6), rel=1e-6 if float32 else 1e-12)
     assert unchanged == np.array_equal(forces, previous)
+    hot = np.flatnonzero(forces > threshold)
+    assert (first, last) == ((hot[0], hot[-1]) if hot.size else (n, -1))
 
 
 @pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf, 1e200])
 def test_norm2_of_a_bad_frame_fails_the_range_test(bad: float) -> None:
     """Summed in any order (vectorised), ‖f‖² still propagates NaN/Inf and overflows."""
-    from contact_estimation.fused import norm2_and_unchanged
+    from contact_estimation.fused import scan_frame
 
     forces = np.full(37, 0.5)
     forces[17] = bad
-    norm2, _ = norm2_and_unchanged(forces, np.zeros(37))
+    norm2, *_ = scan_frame(forces, np.zeros(37), 0.05)
     assert not norm2 <= 1e12
 
 
