@@ -63,8 +63,8 @@ def scan_frame(forces: NDArray[np.floating], previous: NDArray[np.float64],
 
 @njit(cache=True, nogil=True)
 def patch_sums(forces: NDArray[np.float64], rows_t: NDArray[np.float64], c0: int,
-               threshold: float, out: NDArray[np.float64], start: int = 0,
-               stop: int = -1) -> None:  # pragma: no cover
+               threshold: float, out: NDArray[np.float64], start: int,
+               stop: int) -> None:  # pragma: no cover
     """Sums of one patch (taxels ``c0`` … ``c0 + len(forces) − 1`` of ``rows_t``) into ``out``.
 
     Args:
@@ -72,19 +72,18 @@ def patch_sums(forces: NDArray[np.float64], rows_t: NDArray[np.float64], c0: int
         rows_t: geometry rows per taxel (N, R), R = 9 or 13, columns as in the estimator.
         c0: the patch's first taxel in ``rows_t``.
         threshold: σ_t [N]; a taxel counts when F > σ_t (a NaN never does).
-        start, stop: only taxels ``start`` … ``stop − 1`` of the patch are read (all of them
-            by default): the caller knows that no other taxel is over σ_t.
+        start, stop: only taxels ``start`` … ``stop − 1`` of the patch are read (``0, n``: all
+            of them): the caller knows that no other taxel is over σ_t.
         out: R + 7 columns, ``[Σ row (force rows × F), min p (3), max p (3), count]``; without a
             contacting taxel zeros, +inf / −inf bounds and count 0.
     """
-    n = forces.shape[0]
-    g = rows_t[c0:c0 + n]
+    g = rows_t[c0:c0 + forces.shape[0]]
     weighted = rows_t.shape[1] > 9
     px = py = pz = fx = fy = fz = mx = my = mz = wx = wy = wz = w = 0.0
     lx = ly = lz = np.inf
     hx = hy = hz = -np.inf
     count = 0
-    for j in range(start, n if stop < 0 else stop):
+    for j in range(start, stop):
         force = forces[j]
         if not force > threshold:
             continue
@@ -146,7 +145,8 @@ def all_patch_sums(stored: NDArray[np.float64], rows_t: NDArray[np.float64],
     """Every patch's sums from the stored forces [N] (after a new geometry or threshold);
     patch ``k`` holds taxels ``bounds[k]`` … ``bounds[k + 1] − 1``."""
     for k in range(bounds.shape[0] - 1):
-        patch_sums(stored[bounds[k]:bounds[k + 1]], rows_t, bounds[k], threshold, table[k])
+        c0, c1 = bounds[k], bounds[k + 1]
+        patch_sums(stored[c0:c1], rows_t, c0, threshold, table[k], 0, c1 - c0)
 
 
 @njit(cache=True, nogil=True)
