@@ -19,9 +19,10 @@ fixed by its calibrated layout, so the estimator precomputes, per taxel, the row
 ``Σ (p − c) × f = Σ p × f − c × Σ f``), computed for all links at once with a gather and a
 segmented reduction: about ten numpy calls per step whatever the number of links and patches.
 This gives exactly the sums over the union of a link's patches, with no per-taxel Python loop.
-That numpy version is the reference; by default (``kernel="numba"``) the same sums come from one
-compiled loop over the taxels (:mod:`contact_estimation.fused`), several times faster, and a
-frame of one patch only sums its own link.
+That numpy version is the reference; by default (``kernel="numba"``) each patch's sums are
+computed when its frame arrives, in the compiled pass that also checks the frame
+(:mod:`contact_estimation.fused`), and an estimate only adds each link's patch rows. Both kernels
+turn the sums into states with one compiled function (:func:`fused.link_states`).
 
 Bad input handling (documented in docs/contact_estimation.md), checked on every frame:
 

@@ -201,11 +201,13 @@ def link_states(sums: NDArray[np.float64], groups: NDArray[np.int64],
 
 def warm_up() -> None:
     """Compile (first run) or load (later runs) the kernels ahead of the first frame, for
-    float64 and float32 (a decoded message's) forces."""
+    float64 and float32 forces, contiguous or a column of a decoded message's (N, 7 or 8)
+    float32 table."""
     rows = np.zeros((2, 9))
     stored = np.zeros(2)
     table = np.zeros((1, 9 + TABLE_EXTRA))
-    for forces in (np.ones(2), np.ones(2, dtype=np.float32)):
+    for forces in (np.ones(2), np.ones(2, dtype=np.float32), np.ones((2, 8), np.float32)[:, 6],
+                   np.ones((2, 8))[:, 6]):
         take_frame(forces, stored, rows, 0, 0.0, 1.0e6, table, 0)
     all_patch_sums(stored, rows, np.array([0, 2], dtype=np.int64), 0.0, table)
     link_states(table, np.array([0, 1], dtype=np.int64), np.ones(3), 0, 1,
