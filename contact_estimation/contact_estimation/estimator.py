@@ -496,7 +496,9 @@ class ContactEstimator:
         if its size changed); remember the frame's (read-only) array objects, so a frame
         handing over the very same objects (a composed skin driver passes its layout's
         arrays every frame) skips these checks: a TaxelArray's arrays cannot be written."""
-        check_geometry_values(taxels.positions, taxels.normals, taxels.weights)
+        if not (self._numba and taxels.weights is None
+                and math.isfinite(fused.geometry_total(taxels.positions, taxels.normals))):
+            check_geometry_values(taxels.positions, taxels.normals, taxels.weights)
         known = self._geometry.get(patch)
         if (
             known is None

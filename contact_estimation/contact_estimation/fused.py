@@ -61,6 +61,21 @@ def scan_frame(forces: NDArray[np.floating], previous: NDArray[np.float64],
     return norm2, not differs, first, last
 
 
+@njit(cache=True, nogil=True, fastmath={"reassoc"})
+def geometry_total(positions: NDArray[np.floating],
+                   normals: NDArray[np.floating]) -> float:  # pragma: no cover
+    """Σ of every position [m] and normal component of a frame, in any order (vectorised):
+    finite when every element is, so a finite total proves them all finite (a non-finite one
+    can also be an overflow of finite values: the caller's exact check clears that). The cheap
+    test of :func:`contact_estimation.estimator.check_geometry_values`, compiled for a decoded
+    message's strided float32 columns (about 5× faster there than the BLAS products)."""
+    total = 0.0
+    for j in range(positions.shape[0]):
+        total += positions[j, 0] + positions[j, 1] + positions[j, 2]
+        total += normals[j, 0] + normals[j, 1] + normals[j, 2]
+    return total
+
+
 @njit(cache=True, nogil=True)
 def patch_sums(forces: NDArray[np.float64], rows_t: NDArray[np.float64], c0: int,
                threshold: float, out: NDArray[np.float64], start: int,
@@ -210,5 +225,7 @@ def warm_up() -> None:
                    np.ones((2, 8))[:, 6]):
         take_frame(forces, stored, rows, 0, 0.0, 1.0e6, table, 0)
     all_patch_sums(stored, rows, np.array([0, 2], dtype=np.int64), 0.0, table)
+    for matrix in (np.ones((2, 3)), np.ones((2, 8), np.float32)[:, 0:3]):
+        geometry_total(matrix, matrix)
     link_states(table, np.array([0, 1], dtype=np.int64), np.ones(3), 0, 1,
                 np.zeros((1, STATE_WIDTH)), np.zeros(1, dtype=np.int64))

@@ -213,3 +213,23 @@ def test_kernels_agree_on_frame_sequences_with_refusals_and_changes(
                 frame = TaxelArray(*geometry[patch][:2], forces, geometry[patch][2], "l", stamp)
                 _same_outcome(ests, "update", patch, frame)
         _assert_same(*ests)
+
+
+@settings(max_examples=50, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 300),
+       bad=st.sampled_from([None, math.nan, math.inf, -math.inf]),
+       field=st.integers(0, 5), float32=st.booleans())
+def test_geometry_total_is_finite_exactly_when_every_element_is(
+        seed: int, n: int, bad: float | None, field: int, float32: bool) -> None:
+    """On the columns of a decoded message's (N, 7) float32 table, as the node hands them over,
+    and on float64 arrays: one bad position or normal component makes the total non-finite."""
+    from contact_estimation.fused import geometry_total
+
+    rng = np.random.default_rng(seed)
+    table = rng.uniform(-1.0, 1.0, (n, 7)).astype(np.float32 if float32 else np.float64)
+    if bad is not None:
+        table[rng.integers(n), field] = bad
+    total = geometry_total(table[:, 0:3], table[:, 3:6])
+    assert math.isfinite(total) == bool(np.isfinite(table[:, 0:6]).all())
+    assert total == pytest.approx(float(table[:, 0:6].sum(dtype=np.float64)), rel=1e-9,
+                                  abs=1e-3) or bad is not None
