@@ -19,9 +19,10 @@ fixed by its calibrated layout, so the estimator precomputes, per taxel, the row
 ``Σ (p − c) × f = Σ p × f − c × Σ f``), computed for all links at once with a gather and a
 segmented reduction: about ten numpy calls per step whatever the number of links and patches.
 This gives exactly the sums over the union of a link's patches, with no per-taxel Python loop.
-That numpy version is the reference; by default (``kernel="numba"``) the same sums come from one
-compiled loop over the taxels (:mod:`contact_estimation.fused`), several times faster, and a
-frame of one patch only sums its own link.
+That numpy version is the reference; by default (``kernel="numba"``) each patch's sums are
+computed when its frame arrives, in the compiled pass that also checks the frame
+(:mod:`contact_estimation.fused`), and an estimate only adds each link's patch rows. Both kernels
+turn the sums into states with one compiled function (:func:`fused.link_states`).
 
 Bad input handling (documented in docs/contact_estimation.md), checked on every frame:
 
@@ -250,10 +251,6 @@ def check_geometry_values(
             raise InvalidTaxelData(f"{bad} of {n} taxel {name}s are NaN or infinite")
 
 
-def _clamp(value: float, limit: float) -> float:
-    return -limit if value < -limit else (limit if value > limit else value)
-
-
 class StuckDetector:
     """A stuck skin: a touched patch (‖f‖ > 0) whose forces repeat bit for bit for longer than
     ``timeout`` [s] of frame stamps. A real skin's ADC noise never repeats a loaded frame
@@ -270,16 +267,18 @@ class StuckDetector:
         self._fingerprint: dict[str, float] = {}
         self._since: dict[str, int] = {}
 
-    def check(self, patch: str, norm2: float, forces: FloatArray, previous: FloatArray,
+    def check(self, patch: str, norm2: float, forces: FloatArray, previous: FloatArray | None,
               stamp_ns: int, unchanged: bool | None = None) -> None:
         """Take ``patch``'s new frame (‖f‖² = ``norm2``) against its ``previous`` forces
-        (``unchanged``: their element-wise equality where the caller has computed it).
+        (``unchanged``: their element-wise equality where the caller has computed it; then
+        ``previous`` is not read and may be None).
 
         Raises:
             InvalidTaxelData: the patch has been stuck for longer than the timeout.
         """
         if unchanged is None:
-            unchanged = norm2 == self._fingerprint.get(patch) and np.array_equal(forces, previous)
+            unchanged = (norm2 == self._fingerprint.get(patch) and previous is not None
+                         and np.array_equal(forces, previous))
         if norm2 == 0.0 or norm2 != self._fingerprint.get(patch) or not unchanged:
             self._fingerprint[patch] = norm2
             self._since[patch] = stamp_ns
@@ -320,17 +319,26 @@ class ContactEstimator:
         self._stamps: dict[str, int] = dict.fromkeys(self.patch_links, 0)
         self._taken: dict[str, tuple[FloatArray, FloatArray, FloatArray | None]] = {}
         self._stuck = StuckDetector(self.config.stuck_timeout)
-        self._limit = tuple(float(x) for x in self.config.torque_limit)
+        self._set_config(self.config)
         self._build()
-        if self.config.kernel == "numba":
-            fused.warm_up()
 
     def reconfigure(self, config: EstimatorConfig) -> None:
         """Switch to new thresholds/limits; the next estimate uses them."""
+        self._set_config(config)
+        self._sum_patches()
+
+    def _set_config(self, config: EstimatorConfig) -> None:
         self.config = config
-        self._limit = tuple(float(x) for x in config.torque_limit)
-        if config.kernel == "numba":
+        self._limit = np.array(config.torque_limit, dtype=np.float64)
+        self._numba = config.kernel == "numba"
+        self._limit2 = config.max_taxel_force * config.max_taxel_force  # [N²]
+        if self._numba:
             fused.warm_up()
+
+    def _sum_patches(self) -> None:
+        """Every patch's sums from its stored forces (the numba kernel's per-patch table)."""
+        fused.all_patch_sums(self._forces, self._rows_t, self._bounds,
+                             self.config.force_threshold, self._patch_table)
 
     def _build(self) -> None:
         """(Re)build the concatenated geometry rows, force buffer and column ranges.
@@ -367,10 +375,17 @@ class ContactEstimator:
         self._link_items = list(self.links.items())
         self._link_index = {link: i for i, (link, _) in enumerate(self._link_items)}
         self._link_starts.append(start)
-        # The compiled kernel's inputs: rows per taxel, link bounds, one output row per link.
+        # The compiled kernel's inputs: rows per taxel, one row of sums per patch (in link
+        # order), each link's first patch row; the reference's identity grouping (a row per link).
         self._rows_t = np.ascontiguousarray(self._rows[:, :start].T)
-        self._starts = np.array(self._link_starts, dtype=np.int64)
-        self._table = np.zeros((len(self._link_items), self._rows.shape[0] + fused.TABLE_EXTRA))
+        self._slots = {p: (*self._columns[p], k) for k, p in enumerate(self._order)}
+        self._bounds = np.array([self._columns[p][0] for p in self._order] + [start],
+                                dtype=np.int64)
+        self._groups = np.cumsum([0] + [len(p) for p in self.links.values()], dtype=np.int64)
+        self._link_rows = np.arange(len(self._link_items) + 1, dtype=np.int64)
+        self._counts = np.zeros(len(self._link_items), dtype=np.int64)
+        self._patch_table = np.empty((len(self._order), self._rows.shape[0] + fused.TABLE_EXTRA))
+        self._sum_patches()
 
     def set_geometry(
         self,
@@ -408,32 +423,45 @@ class ContactEstimator:
 
     def set_forces(self, patch: str, forces: FloatArray, stamp_ns: int) -> None:
         """Hot path: new forces [N] for a patch whose geometry is already set."""
-        self._patch_link(patch)
-        if patch not in self._geometry:
+        slot = self._slots.get(patch)
+        if slot is None or patch not in self._geometry:
+            self._patch_link(patch)
             raise InvalidTaxelData(
                 f"patch {patch!r} has no geometry yet: call set_geometry or update first"
             )
-        c0, c1 = self._columns[patch]
-        if forces.shape != (c1 - c0,):
+        if forces.shape != (slot[1] - slot[0],):
             raise InvalidTaxelData(
-                f"patch {patch!r}: {forces.shape} forces for {c1 - c0} taxels"
+                f"patch {patch!r}: {forces.shape} forces for {slot[1] - slot[0]} taxels"
             )
-        previous = self._forces[c0:c1]
-        norm2, unchanged = self._norm2(forces, previous)
-        self._stuck.check(patch, norm2, forces, previous, stamp_ns, unchanged)
-        previous[:] = forces
-        self._stamps[patch] = stamp_ns
+        self._take_forces(patch, forces, slot, stamp_ns)
 
-    def _norm2(self, forces: FloatArray, previous: FloatArray) -> tuple[float, bool | None]:
-        """Range check of a new frame (:func:`check_forces`): ``(‖f‖² [N²], f == previous,
-        or None where not computed)``; raises :class:`InvalidTaxelData` as check_forces."""
-        limit = self.config.max_taxel_force
-        if self.config.kernel == "numpy" or forces.ndim != 1:
-            return check_forces(forces, limit), None
-        norm2, unchanged = fused.norm2_and_unchanged(forces, previous)
-        if norm2 <= limit * limit:
-            return norm2, unchanged
-        return check_forces(forces, limit), None  # names the bad value, or clears the alarm
+    def _take_forces(self, patch: str, forces: FloatArray, slot: tuple[int, int, int],
+                     stamp_ns: int) -> None:
+        """Check a frame's forces [N] (shape already checked), then store them: the range
+        (:func:`check_forces`), the stuck skin (:class:`StuckDetector`); with the numba kernel
+        one fused pass (:func:`fused.take_frame`) also updates the patch's sums.
+
+        Raises:
+            InvalidTaxelData: as check_forces or the stuck detector; nothing is stored.
+        """
+        c0, c1, row = slot
+        if not self._numba:
+            previous = self._forces[c0:c1]
+            norm2 = check_forces(forces, self.config.max_taxel_force)
+            self._stuck.check(patch, norm2, forces, previous, stamp_ns)
+            previous[:] = forces
+            self._stamps[patch] = stamp_ns
+            return
+        threshold = self.config.force_threshold
+        norm2, unchanged = fused.take_frame(forces, self._forces, self._rows_t, c0, threshold,
+                                            self._limit2, self._patch_table, row)
+        if not norm2 <= self._limit2:  # names the bad value and raises, or clears the alarm
+            check_forces(forces, self.config.max_taxel_force)
+            norm2, unchanged = fused.take_frame(forces, self._forces, self._rows_t, c0,
+                                                threshold, math.inf, self._patch_table, row)
+        # A stuck frame is refused only when unchanged, and an unchanged frame wrote nothing.
+        self._stuck.check(patch, norm2, forces, None, stamp_ns, unchanged)
+        self._stamps[patch] = stamp_ns
 
     def update(
         self, patch: str, taxels: TaxelArray, check_geometry: bool = True
@@ -459,12 +487,7 @@ class ContactEstimator:
             a is not b for a, b in zip(geometry, known_objects, strict=True)
         ):
             self._take_geometry(patch, taxels, check_geometry)
-        c0, c1 = self._columns[patch]
-        previous = self._forces[c0:c1]
-        norm2, unchanged = self._norm2(taxels.forces, previous)
-        self._stuck.check(patch, norm2, taxels.forces, previous, taxels.stamp_ns, unchanged)
-        previous[:] = taxels.forces  # checked above, shape fixed by the geometry
-        self._stamps[patch] = taxels.stamp_ns
+        self._take_forces(patch, taxels.forces, self._slots[patch], taxels.stamp_ns)
         i = self._link_index[link]
         return self._states(i, i + 1)[link]
 
@@ -473,7 +496,9 @@ class ContactEstimator:
         if its size changed); remember the frame's (read-only) array objects, so a frame
         handing over the very same objects (a composed skin driver passes its layout's
         arrays every frame) skips these checks: a TaxelArray's arrays cannot be written."""
-        check_geometry_values(taxels.positions, taxels.normals, taxels.weights)
+        if not (self._numba and taxels.weights is None
+                and math.isfinite(fused.geometry_total(taxels.positions, taxels.normals))):
+            check_geometry_values(taxels.positions, taxels.normals, taxels.weights)
         known = self._geometry.get(patch)
         if (
             known is None
@@ -505,9 +530,10 @@ class ContactEstimator:
         """Every link's contact state from its patches' latest frames (eq. 5, 9a, 9b, Ω_i)."""
         return self._states(0, len(self._link_items))
 
-    def _link_sums_numpy(self, first: int, last: int) -> list[list[float]]:
-        """The numpy reference of :func:`contact_estimation.fused.link_sums` (the tests'
-        oracle): per link, ``[Σ rows (force rows × F), min p (3), max p (3), count]``."""
+    def _link_sums_numpy(self) -> NDArray[np.float64]:
+        """The numpy reference of :func:`contact_estimation.fused.patch_sums` summed per link
+        (the tests' oracle): a row per link, ``[Σ rows (force rows × F), min p (3), max p (3),
+        count]`` over the union of the link's patches."""
         forces = self._forces
         contacting = np.flatnonzero(forces > self.config.force_threshold)  # ends with sentinel
         gathered = self._rows[:, contacting]
@@ -519,55 +545,29 @@ class ContactEstimator:
             np.maximum.reduceat(gathered[_P], bounds, axis=1).T,
             np.diff(bounds, append=bounds[-1])[:, None],
         ], axis=1)
-        return table[first:last].tolist()
-
-    def _link_sums(self, first: int, last: int) -> list[list[float]]:
-        """Per-link sums of links ``first`` … ``last − 1`` by the configured kernel."""
-        if self.config.kernel == "numpy":
-            return self._link_sums_numpy(first, last)
-        table = self._table
-        fused.link_sums(self._forces, self._rows_t, self.config.force_threshold,
-                        self._starts, first, last, table)
-        return table[first:last].tolist()
+        return np.ascontiguousarray(table)
 
     def _states(self, first: int, last: int) -> dict[str, ContactState]:
-        """Contact states of links ``first`` … ``last − 1`` from their sums (5), (9a), (9b)."""
-        width = self._rows.shape[0]
-        wp, w_row = (_WP, _W) if self._weighted else (_P, None)
-        lim = self._limit
-        rows: list[list[float]] = []  # per contacting link: centre, force, torque, min, max
-        contacting_links: list[tuple[int, str, int, int]] = []
+        """Contact states of links ``first`` … ``last − 1`` from their sums (5), (9a), (9b):
+        per patch (numba kernel, kept up to date by every frame) or per link (numpy)."""
+        if self._numba:
+            sums, groups = self._patch_table, self._groups
+        else:
+            sums, groups = self._link_sums_numpy(), self._link_rows
+        table = np.empty((last - first, fused.STATE_WIDTH))
+        fused.link_states(sums, groups, self._limit, first, last, table, self._counts)
+        table.flags.writeable = False  # the states' vectors are read-only views of it
+        counts = self._counts.tolist()
+        stamps = self._stamps
         states: dict[str, ContactState] = {}
-        items = self._link_items
-        for i, s in enumerate(self._link_sums(first, last), start=first):
-            link, patches = items[i]
-            stamp = max([self._stamps[p] for p in patches])
-            count = int(s[width + 6])
-            w = float(count) if w_row is None else s[w_row]
-            if count == 0 or w <= 0.0:
-                # No taxel over σ_t, or only taxels with ω = 0 (declared insensitive): the
-                # centre (5) is undefined and there is no contact.
-                states[link] = ContactState.no_contact(link, stamp)
-                continue
-            cx, cy, cz = s[wp.start] / w, s[wp.start + 1] / w, s[wp.start + 2] / w
-            fx, fy, fz = s[3], s[4], s[5]
-            mx, my, mz = s[6], s[7], s[8]
-            # (9b) about the centre: Σ (p − c) × f = Σ p × f − c × Σ f
-            tx = mx - (cy * fz - cz * fy)
-            ty = my - (cz * fx - cx * fz)
-            tz = mz - (cx * fy - cy * fx)
-            rows.append(
-                [cx, cy, cz, fx, fy, fz,
-                 _clamp(tx, lim[0]), _clamp(ty, lim[1]), _clamp(tz, lim[2]),
-                 *s[width : width + 6]]
-            )
-            contacting_links.append((len(rows) - 1, link, stamp, count))
-        if rows:
-            # One array for every contacting link; each state holds views of its own row.
-            table = np.array(rows)
-            table.flags.writeable = False  # the states' vectors are read-only views of it
-            for r, link, stamp, count in contacting_links:
-                states[link] = ContactState.from_row(link, stamp, True, table[r], count)
+        for i in range(first, last):
+            link, patches = self._link_items[i]
+            stamp = stamps[patches[0]] if len(patches) == 1 else max(map(stamps.__getitem__,
+                                                                           patches))
+            count = counts[i]
+            states[link] = (ContactState.from_frozen_row(link, stamp, True, table[i - first],
+                                                         count)
+                            if count else ContactState.no_contact(link, stamp))
         return states
 
 

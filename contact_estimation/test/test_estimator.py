@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -207,34 +208,38 @@ def reference_estimate(p, n, f, w, threshold):
     centre = sum(w[j] * p[j] for j in contacting) / wsum
     force = sum(w[j] * (-f[j] * n[j]) for j in contacting)
     torque = sum(np.cross(p[j] - centre, w[j] * (-f[j] * n[j])) for j in contacting)
-    return centre, force, torque
+    region = np.array([p[j] for j in contacting])
+    return centre, force, torque, region.min(axis=0), region.max(axis=0), len(contacting)
 
 
 coords = st.floats(-0.5, 0.5, allow_nan=False)
 
 
+@pytest.mark.parametrize("kernel", ["numba", "numpy"])
 @settings(max_examples=60, deadline=None)
 @given(data=st.data(), n=st.integers(2, 40), split=st.integers(0, 40))
 def test_two_patches_on_one_link_equal_the_per_taxel_reference(
-    data: st.DataObject, n: int, split: int
+    kernel: str, data: st.DataObject, n: int, split: int
 ) -> None:
     p = data.draw(arrays(np.float64, (n, 3), elements=coords))
     nrm = data.draw(arrays(np.float64, (n, 3), elements=st.floats(-1, 1)))
     f = data.draw(arrays(np.float64, (n,), elements=st.floats(-1.0, 5.0)))
     w = data.draw(arrays(np.float64, (n,), elements=st.floats(0.1, 3.0)))
     k = 1 + split % (n - 1)  # both patches non-empty: an empty cloud is refused
-    est = ContactEstimator({"a": "link", "b": "link"}, NO_LIMIT)
+    est = ContactEstimator({"a": "link", "b": "link"}, replace(NO_LIMIT, kernel=kernel))
     est.update("a", taxels(p[:k], nrm[:k], f[:k], w[:k], stamp_ns=1))
     state = est.update("b", taxels(p[k:], nrm[k:], f[k:], w[k:], stamp_ns=2))
     ref = reference_estimate(p, nrm, f, w, NO_LIMIT.force_threshold)
     if ref is None:
         assert not state.in_contact
         return
-    centre, force, torque = ref
-    assert state.in_contact and state.stamp_ns == 2
+    centre, force, torque, low, high, count = ref
+    assert state.in_contact and state.stamp_ns == 2 and state.taxel_count == count
     np.testing.assert_allclose(state.center, centre, atol=1e-9)
     np.testing.assert_allclose(state.force, force, atol=1e-9)
     np.testing.assert_allclose(state.torque, torque, atol=1e-9)
+    np.testing.assert_array_equal(state.region_min, low)
+    np.testing.assert_array_equal(state.region_max, high)
 
 
 @settings(max_examples=40, deadline=None)

@@ -56,6 +56,24 @@ def test_read_only_views_are_taken_without_a_copy() -> None:
     assert not np.shares_memory(touching(center=view).center, writable)
 
 
+def test_rows_and_no_contact_give_the_same_states_as_the_constructor() -> None:
+    """from_row (checked), from_frozen_row (the estimator's unchecked path) and no_contact are
+    the constructor's states: equal, immutable, and the row's slices in field order."""
+    row = np.array([0.1, 0.2, 0.3, 1.0, 2.0, 3.0, 0.0, 0.1, 0.0, 0.0, 0.1, 0.2, 0.2, 0.3, 0.4])
+    row.flags.writeable = False
+    for state in (ContactState.from_row("left_forearm_link", 7, True, row, 5),
+                  ContactState.from_frozen_row("left_forearm_link", 7, True, row, 5)):
+        assert state == touching()
+        assert np.shares_memory(state.region_max, row)
+        with pytest.raises(ValueError, match="read-only"):
+            state.torque[0] = 1.0
+    idle = ContactState.no_contact("l", 3)
+    assert idle == ContactState("l", 3)
+    assert not idle.in_contact and idle.taxel_count == 0
+    with pytest.raises(ValueError, match="read-only"):
+        idle.center[0] = 1.0
+
+
 def test_wrong_shapes_name_the_field() -> None:
     with pytest.raises(ValueError, match=r"contact state torque must have shape \(3,\)"):
         touching(torque=[1.0, 2.0])
