@@ -16,6 +16,7 @@ Interface, parameters and ground-truth topics: ``docs/phri_sim.md``.
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -39,10 +40,11 @@ from std_msgs.msg import Float64MultiArray, Header
 from phri_common import paper
 from phri_common.params import ParamSpec, ParamValue
 from phri_common.planar import quaternion_from_yaw
+from phri_common.records import TaxelArray
 from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
-from phri_common.taxels import TaxelCloudEncoder
+from phri_common.taxels import TaxelCloudEncoder, msg_to_taxels
 from phri_sim.faults import DEFAULT_FAULT_TIME, FAULT_KINDS, FaultSpec, SensorFaults
 from phri_sim.scenarios import Q_HOME, SCENARIOS, Script, start_scenario
 from phri_sim.sim import ARM_JOINTS, CommandError, SimConfig, Simulation
@@ -104,6 +106,9 @@ PARAMS: list[ParamSpec] = [
 
 SENSOR_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 ARM_TOPICS = {side: f"{side}/forward_velocity_controller/commands" for side in ARM_JOINTS}
+
+TaxelListener = Callable[[str, TaxelArray], None]
+"""Receives (patch name, taxel array) for every taxel array the bridge publishes."""
 
 
 def _check_divides(step: float, periods: dict[str, float]) -> None:
@@ -237,6 +242,7 @@ class SimBridgeNode(Node):
             self.skin_link = SkinLink(self.sim.skins.sensors)
             self.skin_link.tare(self._skin_every * self.sim.dt)
         self._readings: dict[str, np.ndarray] = {}
+        self._taxel_listeners: list[TaxelListener] = []
         self._idle_every = int(v["skin_idle_decimation"])
         self._idle_count = dict.fromkeys(self.sim.patches, 0)
         self._was_touched = dict.fromkeys(self.sim.patches, True)
@@ -406,14 +412,29 @@ class SimBridgeNode(Node):
         self._read(self.sim.clean_skin_forces())
         self._publish_readings()
 
+    def add_taxel_listener(self, listener: TaxelListener) -> None:
+        """Hand every taxel array to ``listener(patch, taxels)`` in this process, e.g. contact
+        estimation's ``on_frame`` (the lock-step runner): the taxels exactly as a subscriber
+        decodes the message (its float32 columns, :func:`msg_to_taxels`), without the
+        serialisation and the DDS round trip. From then on the taxel topics go out only while
+        they have subscribers (a recorder), like the ground truth."""
+        self._taxel_listeners.append(listener)
+
     def _publish_readings(self) -> None:
         """One taxel array per patch with a reading since the last publication (frame = the
-        patch's link), through the sensor faults; :attr:`published_patches` lists them."""
+        patch's link), through the sensor faults, to the listeners and the topic;
+        :attr:`published_patches` lists them."""
         stamp = self.stamp_ns
         self.published_patches = []
         for name, reading in self._readings.items():
             forces = self.faults.taxels(name, reading, self.fault_clock)
-            self.skin_pubs[name].publish(self.encoders[name].encode(forces, stamp))
+            msg = self.encoders[name].encode(forces, stamp)
+            if self._taxel_listeners:
+                taxels = msg_to_taxels(msg)
+                for listener in self._taxel_listeners:
+                    listener(name, taxels)
+            if not self._taxel_listeners or self.skin_pubs[name].get_subscription_count() > 0:
+                self.skin_pubs[name].publish(msg)
             self.published_patches.append(name)
         self._readings = {}
 

@@ -153,12 +153,22 @@ def _params(values: dict[str, Any]) -> list[Parameter]:
     return [Parameter(name, value=value) for name, value in values.items()]
 
 
-def _estimation_node(context: Context, scenario: Scenario) -> Node:
-    """The contact estimation node with the scenario's parameters, on sim time, no markers."""
+TAXEL_TRANSPORTS = ("direct", "topics")
+"""How the taxel arrays reach contact estimation in a lock-step run (``taxel_transport``):
+``direct`` = the bridge hands each one to the node's ``on_frame`` (the composed skin node's
+path, phri_bringup.skin_contact_node), the topics published only to other subscribers;
+``topics`` = over ``skin/<patch>/taxels`` (serialised, DDS, decoded from the bytes). Same
+taxels either way (test_skin_loop.py: identical metrics)."""
+
+
+def _estimation_node(context: Context, scenario: Scenario, subscribe: bool) -> Node:
+    """The contact estimation node with the scenario's parameters, on sim time, no markers;
+    subscribed to the taxel topics when ``subscribe``."""
     from contact_estimation.node import ContactEstimationNode
 
     return ContactEstimationNode(context=context, parameter_overrides=[
         Parameter("use_sim_time", value=True), Parameter("publish_markers", value=False),
+        Parameter("subscribe_taxels", value=subscribe),
         *_params(scenario.estimation_parameters),
     ])
 
@@ -230,6 +240,7 @@ class ScenarioRun:
         physics_timestep: float | None = None,
         taxel_publish_rate_hz: float | None = None,
         controller: str = "node",
+        taxel_transport: str = "direct",
         viewer: bool = False,
         recorder: Recorder | None = None,
         progress: Progress | None = None,
@@ -247,6 +258,10 @@ class ScenarioRun:
         if fidelity not in FIDELITIES:
             raise ValueError(f"fidelity must be one of {', '.join(FIDELITIES)}, got {fidelity!r}")
         fid = FIDELITIES[fidelity]
+        if taxel_transport not in TAXEL_TRANSPORTS:
+            raise ValueError(f"taxel_transport must be one of {', '.join(TAXEL_TRANSPORTS)}, "
+                             f"got {taxel_transport!r}")
+        self.taxel_transport = taxel_transport
         self.fidelity, self.skin_driver = fidelity, skin_driver
         self.bridge = SimBridgeNode(context=context, parameter_overrides=_params({
             "lockstep": True, "scenario": name, "seed": seed, "viewer": viewer,
@@ -256,7 +271,10 @@ class ScenarioRun:
             "taxel_publish_rate_hz": _given(taxel_publish_rate_hz, fid.taxel_publish_rate_hz),
             "skin_driver": skin_driver, "fault": fault, "fault_time": float(fault_time),
         }))
-        self.estimation = _estimation_node(context, sc)
+        direct = taxel_transport == "direct"
+        self.estimation = _estimation_node(context, sc, subscribe=not direct)
+        if direct:
+            self.bridge.add_taxel_listener(self.estimation.on_frame)  # type: ignore[attr-defined]
         self.controller = _controller_node(controller, context, sc)
         self.is_stub = controller == "stub"
         self.probe = Node("phri_sim_runner", context=context)
@@ -346,9 +364,12 @@ class ScenarioRun:
         """Run to the end; return the metrics (also the run's settings and timing)."""
         periods = round(self.duration / self.bridge.period)
         # Let discovery settle and the nodes see the initial state before the first tick.
+        # Direct hand-off: the estimator's outputs must be subscribed; topics: its inputs.
+        inputs = [f"contacts/{link}" for link in SKIN_LINKS] if self.taxel_transport == "direct" \
+            else [f"skin/{p}/taxels" for p in self.bridge.sim.patches]
         self.spin_until(lambda: all(
-            self.bridge.count_subscribers(f"skin/{p}/taxels") > 0 for p in self.bridge.sim.patches
-        ) and self.bridge.count_subscribers("/clock") > 0, "discovery")
+            self.bridge.count_subscribers(topic) > 0 for topic in [*inputs, "/clock"]
+        ), "discovery")
         start = time.perf_counter()
         cpu_start = time.process_time()
         next_report = 1.0
@@ -374,6 +395,7 @@ class ScenarioRun:
             "controller": "stub (zero commands)" if self.is_stub else "wholebody_controller",
             "fidelity": self.fidelity,
             "skin_driver": self.skin_driver,
+            "taxel_transport": self.taxel_transport,
             "commands_refused": self.bridge.commands_refused,
         })
         if self.bridge.faults.spec is not None:
@@ -431,6 +453,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--skin-idle-decimation", type=int, default=None,
                         help="sample an untouched patch every N-th time (1 = always)")
     parser.add_argument("--stub", action="store_true", help="zero-command stub controller")
+    parser.add_argument("--taxel-transport", choices=TAXEL_TRANSPORTS, default="direct",
+                        help="taxel arrays to contact estimation: direct hand-off or the topics")
     parser.add_argument("--viewer", action="store_true", help="MuJoCo viewer (needs a display)")
     parser.add_argument("--out", default=None, help="metrics JSON path")
     parser.add_argument("--fault", choices=FAULT_KINDS, default=None,
@@ -448,7 +472,8 @@ def main(argv: list[str] | None = None) -> None:
         seed=args.seed, fidelity=args.fidelity, skin_driver=args.skin_driver,
         skin_rate_hz=args.skin_rate,
         skin_idle_decimation=args.skin_idle_decimation,
-        controller="stub" if args.stub else "node", viewer=args.viewer, progress=report,
+        controller="stub" if args.stub else "node", taxel_transport=args.taxel_transport,
+        viewer=args.viewer, progress=report,
         fault=args.fault or "", fault_time=args.fault_time,
     )
     print(json.dumps(metrics, indent=2))
