@@ -44,7 +44,7 @@ from phri_common.records import TaxelArray
 from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
-from phri_common.taxels import TaxelCloudEncoder, msg_to_taxels
+from phri_common.taxels import TaxelCloudEncoder
 from phri_sim.faults import DEFAULT_FAULT_TIME, FAULT_KINDS, FaultSpec, SensorFaults
 from phri_sim.scenarios import Q_HOME, SCENARIOS, Script, start_scenario
 from phri_sim.sim import ARM_JOINTS, CommandError, SimConfig, Simulation
@@ -415,9 +415,9 @@ class SimBridgeNode(Node):
     def add_taxel_listener(self, listener: TaxelListener) -> None:
         """Hand every taxel array to ``listener(patch, taxels)`` in this process, e.g. contact
         estimation's ``on_frame`` (the lock-step runner): the taxels exactly as a subscriber
-        decodes the message (its float32 columns, :func:`msg_to_taxels`), without the
-        serialisation and the DDS round trip. From then on the taxel topics go out only while
-        they have subscribers (a recorder), like the ground truth."""
+        decodes the message (its float32 columns, :meth:`TaxelCloudEncoder.taxels`), without
+        the message, its serialisation and the DDS round trip. From then on the taxel topics go
+        out only while they have subscribers (a recorder), like the ground truth."""
         self._taxel_listeners.append(listener)
 
     def _publish_readings(self) -> None:
@@ -428,13 +428,13 @@ class SimBridgeNode(Node):
         self.published_patches = []
         for name, reading in self._readings.items():
             forces = self.faults.taxels(name, reading, self.fault_clock)
-            msg = self.encoders[name].encode(forces, stamp)
+            encoder = self.encoders[name]
             if self._taxel_listeners:
-                taxels = msg_to_taxels(msg)
+                taxels = encoder.taxels(forces, stamp)
                 for listener in self._taxel_listeners:
                     listener(name, taxels)
             if not self._taxel_listeners or self.skin_pubs[name].get_subscription_count() > 0:
-                self.skin_pubs[name].publish(msg)
+                self.skin_pubs[name].publish(encoder.encode(forces, stamp))
             self.published_patches.append(name)
         self._readings = {}
 
