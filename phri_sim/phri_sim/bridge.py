@@ -110,6 +110,8 @@ ARM_TOPICS = {side: f"{side}/forward_velocity_controller/commands" for side in A
 
 TaxelListener = Callable[[str, TaxelArray], None]
 """Receives (patch name, taxel array) for every taxel array the bridge publishes."""
+JointStateListener = Callable[[JointState], None]
+OdometryListener = Callable[[Odometry], None]
 
 
 def _check_divides(step: float, periods: dict[str, float]) -> None:
@@ -261,6 +263,7 @@ class SimBridgeNode(Node):
             self.skin_link.tare(self._skin_every * self.sim.dt)
         self._readings: dict[str, np.ndarray] = {}
         self._taxel_listeners: list[TaxelListener] = []
+        self._state_listeners: list[tuple[JointStateListener, OdometryListener]] = []
         self._idle_every = int(v["skin_idle_decimation"])
         self._idle_count = dict.fromkeys(self.sim.patches, 0)
         self._was_touched = dict.fromkeys(self.sim.patches, True)
@@ -387,10 +390,17 @@ class SimBridgeNode(Node):
         q, qd = self.sim.q, self.sim.qd
         positions = np.concatenate([q[:3], self.faults.joints(q[3:], self.fault_clock)])
         # One message of each, refilled: publish() serialises it at once.
-        fill_joint_state(self._joint_msg, positions, qd, stamp)
-        self.joint_pub.publish(self._joint_msg)
-        fill_odometry(self._odom_msg, q[:3], self.sim.base_twist(), stamp)
-        self.odom_pub.publish(self._odom_msg)
+        joints, odom = self._joint_msg, self._odom_msg
+        fill_joint_state(joints, positions, qd, stamp)
+        fill_odometry(odom, q[:3], self.sim.base_twist(), stamp)
+        for on_joints, on_odom in self._state_listeners:
+            on_joints(joints)
+            on_odom(odom)
+        direct = bool(self._state_listeners)
+        if not direct or self.joint_pub.get_subscription_count() > 0:
+            self.joint_pub.publish(joints)
+        if not direct or self.odom_pub.get_subscription_count() > 0:
+            self.odom_pub.publish(odom)
 
     def sample_skin(self, *, publish: bool = True) -> None:
         """One skin sample of every patch due (below); publish the newest reading of each
@@ -444,6 +454,15 @@ class SimBridgeNode(Node):
         the message, its serialisation and the DDS round trip. From then on the taxel topics go
         out only while they have subscribers (a recorder), like the ground truth."""
         self._taxel_listeners.append(listener)
+
+    def add_state_listener(self, on_joints: JointStateListener, on_odom: OdometryListener
+                           ) -> None:
+        """Hand every /joint_states and /odom message to ``on_joints`` / ``on_odom`` in this
+        process (the controller's callbacks, lock-step runner): the message the topic would
+        carry, without its serialisation and the DDS round trip (it is refilled for the next
+        state: a listener copies what it keeps). From then on the two topics go out only while
+        they have subscribers."""
+        self._state_listeners.append((on_joints, on_odom))
 
     def _publish_readings(self) -> None:
         """One taxel array per patch with a reading since the last publication (frame = the
