@@ -6,10 +6,11 @@
   estimation + controller in one process) for each setting — ``fast`` (5 ms physics, 100 Hz
   skin), ``paper`` (2 ms physics, 500 Hz skin) and ``paper+driver`` (the same with the real skin
   driver in the loop: every 500 Hz sample a protocol frame through skin_driver's calibration and
-  moving average) — by the wall clock and by the process's CPU time (all threads), plus the
-  lock-step period's phases (median and p99 [ms]): ``advance`` (physics, skins, sensor messages
-  out), ``sensors`` (until the controller holds this period's inputs), ``commands`` (/clock out
-  until the three commands are back);
+  moving average), ``paper+topics`` (the paper fidelity with the sensor data over their topics
+  instead of handed to the nodes, ``sensor_transport="topics"``) — by the wall clock and by the
+  process's CPU time (all threads), plus the lock-step period's phases (median and p99 [ms]):
+  ``advance`` (physics, skins, sensor messages out), ``sensors`` (until the controller holds
+  this period's inputs), ``commands`` (/clock out until the three commands are back);
 * ``--skin-errors``: the centring scenario at full length per setting, estimated contact centre
   and force against the physics (mean / max over the scored periods).
 
@@ -17,7 +18,7 @@ The machine's load average is printed with the results: on a shared machine the 
 drops with the load, the CPU factor much less. Quote absolute numbers from a quiet machine.
 
 Run: ``.venv/bin/python bench/bench_sim.py [--seconds 5] [--scenarios centring waltz]
-[--settings fast paper paper+driver] [--skin-errors]``
+[--settings fast paper paper+driver paper+topics] [--skin-errors]``
 """
 
 from __future__ import annotations
@@ -81,6 +82,7 @@ SETTINGS: dict[str, dict[str, Any]] = {
     "fast": {"fidelity": "fast"},
     "paper": {"fidelity": "paper"},
     "paper+driver": {"fidelity": "paper", "skin_driver": True},
+    "paper+topics": {"fidelity": "paper", "sensor_transport": "topics"},
 }
 """Benchmark setting → ScenarioRun options."""
 

@@ -113,6 +113,7 @@ def run_session(
     fault_time: float = 5.0,
     fidelity: str = "fast",
     skin_driver: bool = False,
+    sensor_transport: str = "direct",
 ) -> SessionResult:
     """Run ``scenario`` (any accepted spelling) lock-step through the real nodes.
 
@@ -128,8 +129,8 @@ def run_session(
         inspect: called with the :class:`~phri_sim.runner.ScenarioRun` before it runs (tests).
         fault, fault_time: sensor fault to inject and its start [s] (:mod:`phri_sim.faults`;
             '' = none).
-        fidelity, skin_driver: time resolution and the skin driver in the loop (see
-            :class:`phri_sim.runner.ScenarioRun`).
+        fidelity, skin_driver, sensor_transport: time resolution, the skin driver in the loop
+            and how the sensor data reach the nodes (see :class:`phri_sim.runner.ScenarioRun`).
     """
     from phri_sim.runner import ScenarioRun
 
@@ -166,7 +167,7 @@ def run_session(
             run = ScenarioRun(name, context=context, duration=duration, short=short, seed=seed,
                               recorder=make_observer, progress=on_progress, fault=fault,
                               fault_time=fault_time, fidelity=fidelity,
-                              skin_driver=skin_driver)
+                              skin_driver=skin_driver, sensor_transport=sensor_transport)
         if inspect is not None:
             inspect(run)
         try:

@@ -163,7 +163,8 @@ def test_push_moves_the_robot_and_plots_show_it(recorded_run: Any, tmp_path: Pat
 
 def test_nan_input_leaves_every_node_running(ros_context: Any) -> None:
     """NaN taxel frames and a NaN velocity command mid-run are refused; the run goes on and
-    ends with zero velocity (cartesian_controllers' test_nans, in process)."""
+    ends with zero velocity (cartesian_controllers' test_nans, in process). The frames come over
+    the taxel topic, to which the estimator subscribes with the sensor data over topics."""
     from geometry_msgs.msg import Twist
     from rclpy.node import Node
     from sensor_msgs.msg import PointCloud2
@@ -190,7 +191,7 @@ def test_nan_input_leaves_every_node_running(ros_context: Any) -> None:
 
     try:
         result = run_session("centring", duration=2.0, context=ros_context, inspect=inspect,
-                             progress=inject)
+                             progress=inject, sensor_transport="topics")
     finally:
         injector.destroy_node()
     run = runs[0]

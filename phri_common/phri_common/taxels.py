@@ -79,12 +79,30 @@ class TaxelCloudEncoder:
         self._frame_id = frame_id
         self.size = n
 
-    def encode(self, forces: FloatArray, stamp_ns: int) -> PointCloud2:
-        """One frame: forces (N,) [N] at ``stamp_ns`` → PointCloud2."""
+    def _write(self, forces: FloatArray) -> None:
         forces = np.asarray(forces)
         if forces.shape != (self.size,):
             raise ValueError(f"forces must have shape ({self.size},), got {forces.shape}")
         self._records["force"] = forces
+
+    def taxels(self, forces: FloatArray, stamp_ns: int) -> TaxelArray:
+        """One frame as the :class:`TaxelArray` a subscriber decodes from :meth:`encode`'s
+        message (the same float32 columns, in a copy of its own), for a consumer in the same
+        process that skips the message (phri_sim's lock-step runner)."""
+        self._write(forces)
+        # Read-only views of immutable bytes, as the decoded message's: TaxelArray keeps them.
+        columns = len(self._records.dtype.names or ())
+        table = np.frombuffer(self._records.tobytes(), dtype=np.float32).reshape(self.size,
+                                                                                 columns)
+        return TaxelArray(
+            positions=table[:, 0:3], normals=table[:, 3:6], forces=table[:, 6],
+            weights=table[:, 7] if table.shape[1] > 7 else None,
+            frame_id=self._frame_id, stamp_ns=stamp_ns,
+        )
+
+    def encode(self, forces: FloatArray, stamp_ns: int) -> PointCloud2:
+        """One frame: forces (N,) [N] at ``stamp_ns`` → PointCloud2."""
+        self._write(forces)
         itemsize = self._records.dtype.itemsize
         msg = PointCloud2(
             header=Header(stamp=ns_to_stamp(stamp_ns), frame_id=self._frame_id),

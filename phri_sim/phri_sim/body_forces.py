@@ -132,26 +132,59 @@ class ForceLimitTracker:
         self.window = window
         self._series: dict[str, _Series] = {}
         self._start: float | None = None
+        self._names: tuple[str, ...] = ()
+        self._idle: set[str] = set()
+        """Names whose last sample was 0 N (their window: that one sample)."""
+        self._previous = 0.0
+        """Time [s] of the previous sample."""
 
     def add(self, t: float, forces: Mapping[str, float], names: Collection[str] = ()) -> None:
         """One sample at time ``t`` [s] (increasing): ``forces`` [N] per touched name; every name
-        seen before, or listed in ``names``, that is missing reads 0 N."""
+        seen before, or listed in ``names``, that is missing reads 0 N.
+
+        A name that read 0 N last time and again now is not visited: a zero sample empties its
+        window down to that one sample and changes neither peak nor sustained force (both are
+        ≥ 0), so only the time of its last zero sample is needed, and that is the previous call's
+        time when the name next reads a force (same numbers as visiting it every sample)."""
         if self._start is None:
             self._start = t
-        for name in (*names, *forces):
-            if name not in self._series:
-                self._series[name] = _Series(start=self._start)
-        for name, s in self._series.items():
-            f = float(forces.get(name, 0.0))
-            s.peak = max(s.peak, f)
-            # Monotonic deque: window minimum of the samples in [t − window, t].
-            while s.window and s.window[-1][1] >= f:
-                s.window.pop()
-            s.window.append((t, f))
-            while s.window[0][0] < t - self.window - 1e-9:
-                s.window.popleft()
-            if t - s.start >= self.window - 1e-9:
-                s.sustained = max(s.sustained, s.window[0][1])
+        if names != self._names:
+            self._names = tuple(names)
+            for name in self._names:
+                self._new_series(name)
+        series, idle = self._series, self._idle
+        for name, value in forces.items():
+            s = series.get(name) or self._new_series(name)
+            if name in idle:  # its window: the zero sample of the previous call
+                idle.discard(name)
+                s.window = deque([(self._previous, 0.0)])
+            self._sample(s, t, float(value))
+            if value == 0.0:
+                idle.add(name)
+        for name, s in series.items():
+            if name not in idle and name not in forces:
+                self._sample(s, t, 0.0)
+                idle.add(name)
+        self._previous = t
+
+    def _new_series(self, name: str) -> _Series:
+        """The series of ``name``, created (empty, from the first sample's time) if new."""
+        s = self._series.get(name)
+        if s is None:
+            s = self._series[name] = _Series(start=self._start or 0.0)
+        return s
+
+    def _sample(self, s: _Series, t: float, f: float) -> None:
+        """Add F(t) = ``f`` [N] to one series (module docstring)."""
+        s.peak = max(s.peak, f)
+        # Monotonic deque: window minimum of the samples in [t − window, t].
+        while s.window and s.window[-1][1] >= f:
+            s.window.pop()
+        s.window.append((t, f))
+        while s.window[0][0] < t - self.window - 1e-9:
+            s.window.popleft()
+        if t - s.start >= self.window - 1e-9:
+            s.sustained = max(s.sustained, s.window[0][1])
 
     def peak(self, name: str) -> float:
         """Largest force seen for ``name`` [N] (0 if never touched)."""

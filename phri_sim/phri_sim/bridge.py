@@ -15,7 +15,9 @@ Interface, parameters and ground-truth topics: ``docs/phri_sim.md``.
 
 from __future__ import annotations
 
+import array
 import sys
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -39,6 +41,7 @@ from std_msgs.msg import Float64MultiArray, Header
 from phri_common import paper
 from phri_common.params import ParamSpec, ParamValue
 from phri_common.planar import quaternion_from_yaw
+from phri_common.records import TaxelArray
 from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
@@ -105,6 +108,11 @@ PARAMS: list[ParamSpec] = [
 SENSOR_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 ARM_TOPICS = {side: f"{side}/forward_velocity_controller/commands" for side in ARM_JOINTS}
 
+TaxelListener = Callable[[str, TaxelArray], None]
+"""Receives (patch name, taxel array) for every taxel array the bridge publishes."""
+JointStateListener = Callable[[JointState], None]
+OdometryListener = Callable[[Odometry], None]
+
 
 def _check_divides(step: float, periods: dict[str, float]) -> None:
     """Every period must be a whole number (≥ 1) of physics steps: ValueError naming the
@@ -144,31 +152,48 @@ def sensor_faults(values: dict[str, ParamValue], joint_names: tuple[str, ...]) -
     return SensorFaults(spec, joint_names)
 
 
-def yaw_quaternion(yaw: float) -> Quaternion:
-    """Quaternion of a rotation about z by ``yaw`` [rad]."""
-    w, x, y, z = quaternion_from_yaw(yaw)
-    return Quaternion(w=w, x=x, y=y, z=z)
+def _doubles(values: np.ndarray) -> array.array[float]:
+    """A float64 array as the ``array('d')`` a message's float64[] field stores (the setter
+    takes it as is; a list is checked element by element)."""
+    out = array.array("d")
+    out.frombytes(np.ascontiguousarray(values, dtype=np.float64).tobytes())
+    return out
+
+
+def fill_joint_state(msg: JointState, q: np.ndarray, qd: np.ndarray, stamp_ns: int) -> None:
+    """Write positions [rad] or [m], velocities [rad/s] or [m/s] and the stamp into a
+    JointState whose names are set."""
+    msg.header.stamp = ns_to_stamp(stamp_ns)
+    msg.position = _doubles(q)
+    msg.velocity = _doubles(qd)
 
 
 def joint_state_msg(names: tuple[str, ...], q: np.ndarray, qd: np.ndarray, stamp_ns: int
                     ) -> JointState:
     """JointState of ``names`` (positions [rad] or [m], velocities [rad/s] or [m/s])."""
-    return JointState(
-        header=Header(stamp=ns_to_stamp(stamp_ns)),
-        name=list(names),
-        position=[float(x) for x in q],
-        velocity=[float(x) for x in qd],
-    )
+    msg = JointState(name=list(names))
+    fill_joint_state(msg, q, qd, stamp_ns)
+    return msg
+
+
+def fill_odometry(msg: Odometry, q_base: np.ndarray, twist: np.ndarray, stamp_ns: int) -> None:
+    """Write the planar pose (x, y, yaw) in ``odom`` and the body-frame twist of ``base_link``
+    [m, rad, m/s, rad/s] and the stamp into an Odometry."""
+    msg.header.stamp = ns_to_stamp(stamp_ns)
+    msg.header.frame_id, msg.child_frame_id = "odom", "base_link"
+    pose, vel = msg.pose.pose, msg.twist.twist
+    pose.position.x, pose.position.y, pose.position.z = float(q_base[0]), float(q_base[1]), 0.0
+    w, x, y, z = quaternion_from_yaw(float(q_base[2]))
+    o = pose.orientation
+    o.w, o.x, o.y, o.z = w, x, y, z
+    vel.linear.x, vel.linear.y, vel.linear.z = float(twist[0]), float(twist[1]), 0.0
+    vel.angular.x, vel.angular.y, vel.angular.z = 0.0, 0.0, float(twist[2])
 
 
 def odometry_msg(q_base: np.ndarray, twist: np.ndarray, stamp_ns: int) -> Odometry:
     """Odometry: planar pose (x, y, yaw) in ``odom`` and the body-frame twist of ``base_link``."""
-    msg = Odometry(header=Header(stamp=ns_to_stamp(stamp_ns), frame_id="odom"),
-                   child_frame_id="base_link")
-    msg.pose.pose.position = Point(x=float(q_base[0]), y=float(q_base[1]), z=0.0)
-    msg.pose.pose.orientation = yaw_quaternion(float(q_base[2]))
-    msg.twist.twist.linear = Vector3(x=float(twist[0]), y=float(twist[1]), z=0.0)
-    msg.twist.twist.angular = Vector3(x=0.0, y=0.0, z=float(twist[2]))
+    msg = Odometry()
+    fill_odometry(msg, q_base, twist, stamp_ns)
     return msg
 
 
@@ -237,6 +262,8 @@ class SimBridgeNode(Node):
             self.skin_link = SkinLink(self.sim.skins.sensors)
             self.skin_link.tare(self._skin_every * self.sim.dt)
         self._readings: dict[str, np.ndarray] = {}
+        self._taxel_listeners: list[TaxelListener] = []
+        self._state_listeners: list[tuple[JointStateListener, OdometryListener]] = []
         self._idle_every = int(v["skin_idle_decimation"])
         self._idle_count = dict.fromkeys(self.sim.patches, 0)
         self._was_touched = dict.fromkeys(self.sim.patches, True)
@@ -268,8 +295,11 @@ class SimBridgeNode(Node):
             for name in self.sim.patches
         }
         self.joint_pub = self.create_publisher(JointState, "/joint_states", SENSOR_QOS)
+        self._joint_msg = JointState(name=list(self.sim.joint_names))
+        self._odom_msg = Odometry()
         self.odom_pub = self.create_publisher(Odometry, "/odom", SENSOR_QOS)
         self.clock_pub = self.create_publisher(Clock, "/clock", 10)
+        self._clock_msg = Clock()
         self.wrench_pubs = {
             link: self.create_publisher(WrenchStamped, f"sim/contacts/{link}/wrench", 10)
             for link in self.sim.skin_links
@@ -350,7 +380,8 @@ class SimBridgeNode(Node):
 
     def publish_clock(self) -> None:
         """/clock at the simulation time."""
-        self.clock_pub.publish(Clock(clock=ns_to_stamp(self.stamp_ns)))
+        self._clock_msg.clock = ns_to_stamp(self.stamp_ns)
+        self.clock_pub.publish(self._clock_msg)
 
     def publish_state(self) -> None:
         """/joint_states (the base joints base_x, base_y, base_yaw, so robot_state_publisher
@@ -358,8 +389,18 @@ class SimBridgeNode(Node):
         stamp = self.stamp_ns
         q, qd = self.sim.q, self.sim.qd
         positions = np.concatenate([q[:3], self.faults.joints(q[3:], self.fault_clock)])
-        self.joint_pub.publish(joint_state_msg(self.sim.joint_names, positions, qd, stamp))
-        self.odom_pub.publish(odometry_msg(q[:3], self.sim.base_twist(), stamp))
+        # One message of each, refilled: publish() serialises it at once.
+        joints, odom = self._joint_msg, self._odom_msg
+        fill_joint_state(joints, positions, qd, stamp)
+        fill_odometry(odom, q[:3], self.sim.base_twist(), stamp)
+        for on_joints, on_odom in self._state_listeners:
+            on_joints(joints)
+            on_odom(odom)
+        direct = bool(self._state_listeners)
+        if not direct or self.joint_pub.get_subscription_count() > 0:
+            self.joint_pub.publish(joints)
+        if not direct or self.odom_pub.get_subscription_count() > 0:
+            self.odom_pub.publish(odom)
 
     def sample_skin(self, *, publish: bool = True) -> None:
         """One skin sample of every patch due (below); publish the newest reading of each
@@ -406,14 +447,38 @@ class SimBridgeNode(Node):
         self._read(self.sim.clean_skin_forces())
         self._publish_readings()
 
+    def add_taxel_listener(self, listener: TaxelListener) -> None:
+        """Hand every taxel array to ``listener(patch, taxels)`` in this process, e.g. contact
+        estimation's ``on_frame`` (the lock-step runner): the taxels exactly as a subscriber
+        decodes the message (its float32 columns, :meth:`TaxelCloudEncoder.taxels`), without
+        the message, its serialisation and the DDS round trip. From then on the taxel topics go
+        out only while they have subscribers (a recorder), like the ground truth."""
+        self._taxel_listeners.append(listener)
+
+    def add_state_listener(self, on_joints: JointStateListener, on_odom: OdometryListener
+                           ) -> None:
+        """Hand every /joint_states and /odom message to ``on_joints`` / ``on_odom`` in this
+        process (the controller's callbacks, lock-step runner): the message the topic would
+        carry, without its serialisation and the DDS round trip (it is refilled for the next
+        state: a listener copies what it keeps). From then on the two topics go out only while
+        they have subscribers."""
+        self._state_listeners.append((on_joints, on_odom))
+
     def _publish_readings(self) -> None:
         """One taxel array per patch with a reading since the last publication (frame = the
-        patch's link), through the sensor faults; :attr:`published_patches` lists them."""
+        patch's link), through the sensor faults, to the listeners and the topic;
+        :attr:`published_patches` lists them."""
         stamp = self.stamp_ns
         self.published_patches = []
         for name, reading in self._readings.items():
             forces = self.faults.taxels(name, reading, self.fault_clock)
-            self.skin_pubs[name].publish(self.encoders[name].encode(forces, stamp))
+            encoder = self.encoders[name]
+            if self._taxel_listeners:
+                taxels = encoder.taxels(forces, stamp)
+                for listener in self._taxel_listeners:
+                    listener(name, taxels)
+            if not self._taxel_listeners or self.skin_pubs[name].get_subscription_count() > 0:
+                self.skin_pubs[name].publish(encoder.encode(forces, stamp))
             self.published_patches.append(name)
         self._readings = {}
 
@@ -422,6 +487,9 @@ class SimBridgeNode(Node):
         while touched) and the person's poses (odom). Topics nobody subscribes to are skipped:
         ground truth is for evaluation and recording, and seven unread messages per period
         cost the lock-step runner about a third of its time."""
+        pubs = (*self.wrench_pubs.values(), *self.center_pubs.values(), self.person_pub)
+        if not any(pub.get_subscription_count() > 0 for pub in pubs):
+            return
         stamp = ns_to_stamp(self.stamp_ns)
         for link, gt in self.sim.ground_truth().items():
             header = Header(stamp=stamp, frame_id=link)

@@ -9,7 +9,9 @@ scenario's paper values, :mod:`phri_sim.scenarios`) and ``use_sim_time``. Each c
 
 1. the bridge advances the physics one period (5 ms steps) and publishes joint states,
    odometry, the skins (an untouched patch every 10th period only) and the ground truth (to
-   subscribers), stamped with the simulation time;
+   subscribers), stamped with the simulation time; with ``sensor_transport="direct"`` (default)
+   it hands the taxel arrays, joint states and odometry to the nodes' callbacks instead
+   (:data:`SENSOR_TRANSPORTS`);
 2. the executor spins until the controller holds this period's contact states (same stamp), joint
    state and odometry;
 3. the bridge publishes ``/clock``; the controller's sim-time timer fires and its three commands
@@ -153,12 +155,24 @@ def _params(values: dict[str, Any]) -> list[Parameter]:
     return [Parameter(name, value=value) for name, value in values.items()]
 
 
-def _estimation_node(context: Context, scenario: Scenario) -> Node:
-    """The contact estimation node with the scenario's parameters, on sim time, no markers."""
+SENSOR_TRANSPORTS = ("direct", "topics")
+"""How the bridge's sensor data reach the nodes in a lock-step run (``sensor_transport``):
+``direct`` = the bridge hands each taxel array to contact estimation's ``on_frame`` (the composed
+skin node's path, phri_bringup.skin_contact_node) and each joint state and odometry message to
+the controller's ``on_joints`` / ``on_odom``, publishing those topics only to other subscribers
+(a recorder); ``topics`` = all over their topics (serialised, DDS, deserialised). The contact
+states, ``/clock`` and the commands cross DDS either way. Same inputs, same run
+(test_skin_loop.py: identical metrics)."""
+
+
+def _estimation_node(context: Context, scenario: Scenario, subscribe: bool) -> Node:
+    """The contact estimation node with the scenario's parameters, on sim time, no markers;
+    subscribed to the taxel topics when ``subscribe``."""
     from contact_estimation.node import ContactEstimationNode
 
     return ContactEstimationNode(context=context, parameter_overrides=[
         Parameter("use_sim_time", value=True), Parameter("publish_markers", value=False),
+        Parameter("subscribe_taxels", value=subscribe),
         *_params(scenario.estimation_parameters),
     ])
 
@@ -181,6 +195,16 @@ def _controller_node(kind: str, context: Context, scenario: Scenario) -> Node:
     if kind == "stub":
         return ZeroCommandStub(context=context, parameter_overrides=[sim_time])
     raise ValueError(f"controller must be 'node' or 'stub', got {kind!r}")
+
+
+def _hand_states_over(bridge: SimBridgeNode, controller: Any) -> None:
+    """The bridge calls the controller's joint-state and odometry callbacks itself; the
+    controller's own subscriptions to those topics are removed (a message would otherwise
+    arrive twice, and the topics go out only to other subscribers)."""
+    for sub in list(controller.subscriptions):
+        if sub.topic_name in ("/joint_states", "/odom"):
+            controller.destroy_subscription(sub)
+    bridge.add_state_listener(controller.on_joints, controller.on_odom)
 
 
 def _dance_ranges(params: Mapping[str, Any]) -> FloatArray | None:
@@ -230,6 +254,7 @@ class ScenarioRun:
         physics_timestep: float | None = None,
         taxel_publish_rate_hz: float | None = None,
         controller: str = "node",
+        sensor_transport: str = "direct",
         viewer: bool = False,
         recorder: Recorder | None = None,
         progress: Progress | None = None,
@@ -247,6 +272,10 @@ class ScenarioRun:
         if fidelity not in FIDELITIES:
             raise ValueError(f"fidelity must be one of {', '.join(FIDELITIES)}, got {fidelity!r}")
         fid = FIDELITIES[fidelity]
+        if sensor_transport not in SENSOR_TRANSPORTS:
+            raise ValueError(f"sensor_transport must be one of {', '.join(SENSOR_TRANSPORTS)}, "
+                             f"got {sensor_transport!r}")
+        self.sensor_transport = sensor_transport
         self.fidelity, self.skin_driver = fidelity, skin_driver
         self.bridge = SimBridgeNode(context=context, parameter_overrides=_params({
             "lockstep": True, "scenario": name, "seed": seed, "viewer": viewer,
@@ -256,8 +285,13 @@ class ScenarioRun:
             "taxel_publish_rate_hz": _given(taxel_publish_rate_hz, fid.taxel_publish_rate_hz),
             "skin_driver": skin_driver, "fault": fault, "fault_time": float(fault_time),
         }))
-        self.estimation = _estimation_node(context, sc)
+        direct = sensor_transport == "direct"
+        self.estimation = _estimation_node(context, sc, subscribe=not direct)
         self.controller = _controller_node(controller, context, sc)
+        if direct:
+            self.bridge.add_taxel_listener(self.estimation.on_frame)  # type: ignore[attr-defined]
+            if controller == "node":
+                _hand_states_over(self.bridge, self.controller)
         self.is_stub = controller == "stub"
         self.probe = Node("phri_sim_runner", context=context)
         # The real controller already decodes every contact state it is sent: the runner reads
@@ -346,9 +380,12 @@ class ScenarioRun:
         """Run to the end; return the metrics (also the run's settings and timing)."""
         periods = round(self.duration / self.bridge.period)
         # Let discovery settle and the nodes see the initial state before the first tick.
+        # Direct hand-off: the estimator's outputs must be subscribed; topics: its inputs.
+        inputs = [f"contacts/{link}" for link in SKIN_LINKS] if self.sensor_transport == "direct" \
+            else [f"skin/{p}/taxels" for p in self.bridge.sim.patches]
         self.spin_until(lambda: all(
-            self.bridge.count_subscribers(f"skin/{p}/taxels") > 0 for p in self.bridge.sim.patches
-        ) and self.bridge.count_subscribers("/clock") > 0, "discovery")
+            self.bridge.count_subscribers(topic) > 0 for topic in [*inputs, "/clock"]
+        ), "discovery")
         start = time.perf_counter()
         cpu_start = time.process_time()
         next_report = 1.0
@@ -374,6 +411,7 @@ class ScenarioRun:
             "controller": "stub (zero commands)" if self.is_stub else "wholebody_controller",
             "fidelity": self.fidelity,
             "skin_driver": self.skin_driver,
+            "sensor_transport": self.sensor_transport,
             "commands_refused": self.bridge.commands_refused,
         })
         if self.bridge.faults.spec is not None:
@@ -431,6 +469,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--skin-idle-decimation", type=int, default=None,
                         help="sample an untouched patch every N-th time (1 = always)")
     parser.add_argument("--stub", action="store_true", help="zero-command stub controller")
+    parser.add_argument("--sensor-transport", choices=SENSOR_TRANSPORTS, default="direct",
+                        help="taxel arrays, joint states, odometry to the nodes: direct hand-off "
+                        "or their topics")
     parser.add_argument("--viewer", action="store_true", help="MuJoCo viewer (needs a display)")
     parser.add_argument("--out", default=None, help="metrics JSON path")
     parser.add_argument("--fault", choices=FAULT_KINDS, default=None,
@@ -448,7 +489,8 @@ def main(argv: list[str] | None = None) -> None:
         seed=args.seed, fidelity=args.fidelity, skin_driver=args.skin_driver,
         skin_rate_hz=args.skin_rate,
         skin_idle_decimation=args.skin_idle_decimation,
-        controller="stub" if args.stub else "node", viewer=args.viewer, progress=report,
+        controller="stub" if args.stub else "node", sensor_transport=args.sensor_transport,
+        viewer=args.viewer, progress=report,
         fault=args.fault or "", fault_time=args.fault_time,
     )
     print(json.dumps(metrics, indent=2))

@@ -60,8 +60,13 @@ class SimPerson:
         self._target_pos, self._target_vel = np.zeros((n, 3)), np.zeros((n, 3))
         self._target_time = np.zeros(n)
         self._target_cos, self._target_sin = np.ones(n), np.zeros(n)
-        self._rot_err, self._quat = np.zeros(3), np.zeros(4)
-        self._torque, self._torque_world = np.zeros(3), np.zeros(3)
+        self._body_index = np.array(self._bodies, dtype=np.intp)
+        self._lin_dofs = np.array(self._dofs, dtype=np.intp)[:, None] + np.arange(3)
+        self._rot_dofs = self._lin_dofs + 3
+        self._k_lin_col, self._d_lin_col = self._k_lin[:, None], self._d_lin[:, None]
+        self._k_rot_col, self._d_rot_col = self._k_rot[:, None], self._d_rot[:, None]
+        self._rot_err, self._quat = np.zeros((n, 3)), np.zeros(4)
+        self._torque_world = np.zeros(3)
         self._tissue_qpos: dict[str, list[int]] = {}
         self._tissue_dofs: dict[str, list[int]] = {}
         for p in parts:
@@ -117,21 +122,35 @@ class SimPerson:
 
     def apply_wrenches(self, t: float) -> None:
         """Write every part's spring–damper wrench at sim time ``t`` [s] (module docstring) into
-        ``xfrc_applied`` [N, N·m]."""
+        ``xfrc_applied`` [N, N·m].
+
+        The forces of all parts in one set of array operations (element by element the same
+        arithmetic as part by part, so bit-identical); the torques through MuJoCo's quaternion
+        functions, part by part."""
         d = self.data
-        xfrc, xpos, qvel, xquat = d.xfrc_applied, d.xpos, d.qvel, d.xquat
-        err, quat, torque = self._rot_err, self._quat, self._torque
-        for i, b in enumerate(self._bodies):
-            dof = self._dofs[i]
-            lag = t - self._target_time[i]
-            vel = self._target_vel[i]
-            xfrc[b, 0:3] = self._k_lin[i] * (self._target_pos[i] + vel * lag - xpos[b]) + (
-                self._d_lin[i] * (vel - qvel[dof : dof + 3]))
-            push = math.hypot(xfrc[b, 0], xfrc[b, 1])
+        xfrc, xquat, qvel = d.xfrc_applied, d.xquat, d.qvel
+        bodies = self._body_index
+        vel = self._target_vel
+        lag = (t - self._target_time)[:, None]
+        force = self._k_lin_col * (self._target_pos + vel * lag - d.xpos[bodies]) + (
+            self._d_lin_col * (vel - qvel[self._lin_dofs]))
+        for i, fx in enumerate(force[:, 0].tolist()):
+            push = math.hypot(fx, force[i, 1])
             if push > self._max_push[i]:  # person.py, "A person who stops pushing"
-                xfrc[b, 0:2] *= self._max_push[i] / push
+                force[i, 0:2] *= self._max_push[i] / push
+        xfrc[bodies, 0:3] = force
+        torque_body = self._k_rot_col * self._rot_errors(xquat) - (
+            self._d_rot_col * qvel[self._rot_dofs])
+        world = self._torque_world
+        for i, b in enumerate(self._bodies):
+            mujoco.mju_rotVecQuat(world, torque_body[i], xquat[b])
+            xfrc[b, 3:6] = world
+
+    def _rot_errors(self, xquat: FloatArray) -> FloatArray:
+        """(n, 3) body-frame rotation vectors from each part's orientation to its target's
+        (``mju_subQuat``)."""
+        err, quat = self._rot_err, self._quat
+        for i, b in enumerate(self._bodies):
             quat[0], quat[3] = self._target_cos[i], self._target_sin[i]
-            mujoco.mju_subQuat(err, quat, xquat[b])
-            torque[:] = self._k_rot[i] * err - self._d_rot[i] * qvel[dof + 3 : dof + 6]
-            mujoco.mju_rotVecQuat(self._torque_world, torque, xquat[b])
-            xfrc[b, 3:6] = self._torque_world
+            mujoco.mju_subQuat(err[i], quat, xquat[b])
+        return err

@@ -55,6 +55,45 @@ def test_names_listed_but_never_touched_read_zero() -> None:
     assert tracker.peak("unknown") == 0.0
 
 
+def _sustained_by_definition(times: np.ndarray, f: np.ndarray, window: float) -> float:
+    """max over t ≥ t_0 + window of min{F(s) : t − window ≤ s ≤ t}, sample by sample."""
+    out = 0.0
+    for t in times:
+        if t - times[0] >= window - 1e-9:
+            inside = (times >= t - window - 1e-9) & (times <= t)
+            out = max(out, float(f[inside].min()))
+    return out
+
+
+def test_intermittent_contacts_match_the_definition() -> None:
+    """Contacts that come and go (the tracker skips names at rest between them): peak and
+    sustained force of every name as their definitions give them on the whole series."""
+    rng = np.random.default_rng(7)
+    n, names = 1200, ("a", "b", "c")
+    times = np.arange(n) * DT
+    series = {}
+    for name in names:
+        on = np.zeros(n, bool)
+        k = 0
+        while k < n:  # alternating rests and pushes of 1 to 200 samples
+            length = int(rng.integers(1, 200))
+            on[k:k + length] = rng.random() < 0.5
+            k += length
+        series[name] = np.where(on, rng.uniform(1.0, 100.0, n).round(1), 0.0)
+    # A push held exactly one window (101 samples) after a rest, and one a sample shorter.
+    names = (*names, "held", "short")
+    series["held"], series["short"] = np.zeros(n), np.zeros(n)
+    series["held"][300:401], series["short"][700:800] = 50.0, 80.0
+    tracker = ForceLimitTracker()
+    for k, t in enumerate(times):
+        tracker.add(float(t), {m: float(series[m][k]) for m in names if series[m][k] > 0.0},
+                    names)
+    assert tracker.sustained("held") == 50.0 and tracker.sustained("short") == 0.0
+    for name in names:
+        assert tracker.peak(name) == series[name].max()
+        assert tracker.sustained(name) == _sustained_by_definition(times, series[name], 0.5)
+
+
 def test_limit_report_flags_each_limit() -> None:
     abdomen = BODY_REGIONS["abdomen"]  # 110 N quasi-static, 220 N transient
     assert limit_report(abdomen, 219.0, 109.0)["ok"] is True

@@ -65,3 +65,27 @@ def test_newest_frame_per_period_changes_nothing_downstream(ros_context: Any) ->
     newest = run_scenario("centring", context=ros_context, **options)
     assert every["links"]["right_forearm_link"]["scored_samples"] > 20
     assert _outcome(every) == _outcome(newest)
+
+
+@pytest.mark.ros
+def test_direct_sensor_handoff_gives_the_run_of_the_topics(ros_context: Any) -> None:
+    """The lock-step runner hands the taxel arrays to contact estimation and the joint states
+    and odometry to the controller directly (no serialisation, no DDS): the nodes must see
+    exactly what they decode from the topics (float32 taxel columns), so the run is the same,
+    number for number; the topics are then published only while someone subscribes."""
+    options = {"duration": 2.0, "seed": 5, "fidelity": "paper"}
+    topics = run_scenario("centring", context=ros_context, sensor_transport="topics", **options)
+    run = ScenarioRun("centring", context=ros_context, **options)
+    try:
+        direct = run.run()
+        pubs = run.bridge.skin_pubs
+        subscribed = [pubs[p].get_subscription_count() for p in run.bridge.sim.patches]
+        subscribed += [run.bridge.joint_pub.get_subscription_count(),
+                       run.bridge.odom_pub.get_subscription_count()]
+    finally:
+        run.close()
+    assert direct["links"]["right_forearm_link"]["scored_samples"] > 20
+    assert (direct["sensor_transport"], topics["sensor_transport"]) == ("direct", "topics")
+    same = {"sensor_transport": ""}
+    assert {**_outcome(direct), **same} == {**_outcome(topics), **same}
+    assert subscribed == [0, 0, 0, 0, 0]
