@@ -121,3 +121,38 @@ def test_interfaces_page_documents_the_executor_variable_its_values_and_default(
     cells = [c.strip() for c in rows[0].strip("|").split("|")]
     assert cells[1] == ", ".join(f"`{v}`" for v in EXECUTORS)
     assert cells[2] == f"`{EXECUTORS[0]}`"
+
+
+@pytest.mark.parametrize("kind", EXECUTORS)
+def test_one_slice_runs_every_callback_due_in_it_then_returns(
+    kind: str, ros_context: Context
+) -> None:
+    """spin_slice runs a 500 Hz timer ≈ 100 times in 0.2 s in ONE call (spin_once: once) and
+    returns after the slice (a loop around it can see its stop flag)."""
+    import rclpy
+
+    from phri_common.ros_main import spin_slice, spin_until_stopped
+
+    node = rclpy.create_node("slice_ticker", context=ros_context)
+    ticks = [0]
+    node.create_timer(0.002, lambda: ticks.__setitem__(0, ticks[0] + 1))
+    executor = make_executor(kind, context=ros_context)
+    executor.add_node(node)
+    try:
+        start = time.monotonic()
+        spin_slice(executor, 0.2)
+        elapsed = time.monotonic() - start
+        assert 0.19 <= elapsed < 1.0
+        assert ticks[0] >= 40  # ≈ 100 on a quiet machine; one call, many callbacks
+        calls = [0]
+
+        def stopped() -> bool:
+            calls[0] += 1
+            return calls[0] > 3
+
+        start = time.monotonic()
+        spin_until_stopped(executor, stopped, slice_s=0.05)
+        assert calls[0] == 4 and time.monotonic() - start < 1.0  # 3 slices, then stop
+    finally:
+        executor.shutdown()
+        node.destroy_node()
