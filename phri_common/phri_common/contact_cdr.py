@@ -67,6 +67,8 @@ TEMPLATE, MASK = layout_template(_FIELDS, _STRUCT.size)
 _TEMPLATE = np.frombuffer(TEMPLATE, dtype=np.uint8)
 _MASK = np.frombuffer(MASK, dtype=np.uint8)
 _HEADER = struct.Struct("<iII")  # stamp sec, nanosec, frame_id length
+MAX_STAMP_NS = 2**31 * NS_PER_S
+"""First time stamp a message header cannot hold (its ``sec`` is an int32) [ns]."""
 
 
 def cloud_header(data: bytes) -> tuple[str, int, int] | None:
@@ -109,10 +111,15 @@ def contact_from_cdr(data: bytes) -> ContactState | None:
 
 
 def contact_to_cdr(state: ContactState) -> bytes:
-    """The serialized PointCloud2 of :func:`phri_common.contact.contact_to_msg` (``stamp_ns``
-    ≥ 0), ready for ``Publisher.publish``."""
-    if state.stamp_ns < 0:
-        raise ValueError(f"time stamp must be non-negative, got {state.stamp_ns} ns")
+    """The serialized PointCloud2 of :func:`phri_common.contact.contact_to_msg`, ready for
+    ``Publisher.publish``.
+
+    Raises:
+        ValueError: ``stamp_ns`` outside 0 ≤ stamp < :data:`MAX_STAMP_NS`.
+    """
+    if not 0 <= state.stamp_ns < MAX_STAMP_NS:
+        raise ValueError(f"time stamp = {state.stamp_ns} ns: allowed 0 <= stamp < "
+                         f"{MAX_STAMP_NS} ns (header.stamp.sec is an int32)")
     sec, nanosec = divmod(state.stamp_ns, NS_PER_S)
     name = state.link.encode() + b"\x00"
     head = b"\x00\x01\x00\x00" + _HEADER.pack(sec, nanosec, len(name)) + name

@@ -28,7 +28,8 @@ vector = st.tuples(finite, finite, finite)
 @settings(max_examples=150, deadline=None, derandomize=True)
 @given(link=st.text(st.characters(min_codepoint=33, max_codepoint=0x2FF), min_size=1,
                     max_size=23),
-       stamp=st.integers(0, MAX_STAMP_NS - 1), touched=st.booleans(), count=st.integers(0, 2**32 - 1),
+       stamp=st.integers(0, MAX_STAMP_NS - 1), touched=st.booleans(),
+       count=st.integers(0, 2**32 - 1),
        vectors=st.tuples(vector, vector, vector, vector, vector))
 def test_phri_layout_decodes_exactly_as_the_reference(link: str, stamp: int, touched: bool,
                                                       count: int, vectors: tuple) -> None:
@@ -107,7 +108,8 @@ def test_a_stamp_beyond_the_headers_int32_seconds_is_refused_naming_the_range() 
 @settings(max_examples=100, deadline=None, derandomize=True)
 @given(link=st.text(st.characters(min_codepoint=33, max_codepoint=0x2FF), min_size=1,
                     max_size=23),
-       stamp=st.integers(0, MAX_STAMP_NS - 1), touched=st.booleans(), count=st.integers(0, 2**32 - 1),
+       stamp=st.integers(0, MAX_STAMP_NS - 1), touched=st.booleans(),
+       count=st.integers(0, 2**32 - 1),
        vectors=st.tuples(vector, vector, vector, vector, vector))
 def test_encoder_writes_what_rclpy_reads_as_contact_to_msg(link: str, stamp: int,
                                                             touched: bool, count: int,
