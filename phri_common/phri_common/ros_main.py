@@ -33,6 +33,7 @@ never called. ``PHRI_EXECUTOR=single`` keeps rclpy's supported executor availabl
 
 from __future__ import annotations
 
+import inspect
 import os
 import signal
 import sys
@@ -89,6 +90,22 @@ def spin_until_stopped(executor: Executor, stopped: Callable[[], bool],
     context is shut down (module docstring)."""
     while not stopped() and rclpy.ok(context=executor.context):
         spin_slice(executor, slice_s)
+
+
+def timer_callback(callback: Callable[[], object]) -> Callable[[], None]:
+    """``callback`` for ``create_timer``, with its (empty) signature attached.
+
+    rclpy 9.1.2's EventsExecutor calls ``inspect.signature`` on a timer's callback at every
+    call (to pass a ``TimerInfo`` to callbacks that ask for one); for a bound method that costs
+    ≈ 10 µs, for a function carrying ``__signature__`` ≈ 3 µs (a 500 Hz timer: 0.4 % of a
+    core saved). The returned function takes no argument, as the executor then sees.
+    """
+
+    def call() -> None:
+        callback()
+
+    call.__signature__ = inspect.Signature()  # type: ignore[attr-defined]
+    return call
 
 
 def run_nodes(

@@ -156,3 +156,28 @@ def test_one_slice_runs_every_callback_due_in_it_then_returns(
     finally:
         executor.shutdown()
         node.destroy_node()
+
+
+def test_timer_callback_calls_through_and_declares_no_parameters(ros_context: Context) -> None:
+    """What EventsExecutor inspects at every timer call is attached: no parameters (so no
+    TimerInfo is passed), and the timer still runs the wrapped callback."""
+    import inspect
+
+    import rclpy
+
+    from phri_common.ros_main import spin_slice, timer_callback
+
+    calls: list[int] = []
+    wrapped = timer_callback(lambda: calls.append(1))
+    assert inspect.signature(wrapped).parameters == {}
+    assert "__signature__" in vars(wrapped)
+    node = rclpy.create_node("timer_callback_test", context=ros_context)
+    node.create_timer(0.002, wrapped)
+    executor = make_executor("events", context=ros_context)
+    executor.add_node(node)
+    try:
+        spin_slice(executor, 0.1)
+        assert len(calls) >= 10
+    finally:
+        executor.shutdown()
+        node.destroy_node()

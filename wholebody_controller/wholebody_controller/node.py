@@ -45,7 +45,7 @@ from phri_common.contact import ContactMessageError, msg_to_contact
 from phri_common.contact_cdr import contact_from_cdr
 from phri_common.params import ParamValue
 from phri_common.records import ContactState
-from phri_common.ros_main import run_nodes
+from phri_common.ros_main import run_nodes, timer_callback
 from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
 from wholebody_controller.contact_safety import Safety
@@ -173,7 +173,8 @@ class WholeBodyControllerNode(Node):
         self.create_service(Trigger, "~/reset", self._reset)
         self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         period = 1.0 / float(self.params["rate_hz"])
-        self.timer = self.create_timer(period, self.tick)
+        # timer_callback: the executor inspects the callback's signature at every call.
+        self.timer = self.create_timer(period, timer_callback(lambda: self.tick()))
         self.diag_timer = self.create_timer(1.0, self.publish_diagnostics)
 
     # -- parameters -----------------------------------------------------------------------------
