@@ -69,8 +69,23 @@ def _skip_string(data: bytes, offset: int, field: str) -> int:
     return end
 
 
+_last_names: list[tuple[bytes, tuple[str, ...]]] = [(b"", ())]
+"""The last ``name`` block read and its strings: a publisher sends the same names every time."""
+
+
 def _read_names(data: bytes, offset: int) -> tuple[tuple[str, ...], int]:
-    """``name`` of a JointState at body ``offset``: the strings and the offset after them."""
+    """``name`` of a JointState at (4-aligned) body ``offset``: the strings and the offset
+    after them. The same bytes as the last block (count, lengths, strings, padding) are the same
+    names: they are reused instead of parsed again."""
+    block, names = _last_names[0]
+    if block and data[4 + offset : 4 + offset + len(block)] == block:
+        return names, offset + len(block)
+    names, end = _parse_names(data, offset)
+    _last_names[0] = (data[4 + offset : 4 + end], names)
+    return names, end
+
+
+def _parse_names(data: bytes, offset: int) -> tuple[tuple[str, ...], int]:
     count = _field_u32(data, offset, "name (count)")
     if count > MAX_NAMES:
         raise CdrError(f"name: {count} names, allowed at most {MAX_NAMES}")

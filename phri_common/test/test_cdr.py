@@ -150,3 +150,15 @@ def test_garbage_counts_are_refused_naming_the_field_and_value() -> None:
     struct.pack_into("<I", data, 4 + 28, 1000)  # position count
     with pytest.raises(CdrError, match="position: 1000 values do not fit"):
         joint_state_from_cdr(bytes(data))
+
+
+def test_repeated_names_are_reused_only_while_their_bytes_repeat() -> None:
+    """The reader reuses the last names block when the bytes are the same; a name that changes
+    in its last character, or a different frame_id before the names, reads as rclpy wrote it."""
+    first = JointState(name=["joint_a", "joint_b"], position=[1.0, 2.0])
+    changed = JointState(name=["joint_a", "joint_c"], position=[3.0, 4.0])
+    shifted = JointState(name=["joint_a", "joint_c"], position=[5.0, 6.0])
+    shifted.header.frame_id = "base"
+    for msg in (first, first, changed, first, shifted, changed):
+        assert joint_state_from_cdr(serialize_message(msg)) == (tuple(msg.name),
+                                                                tuple(msg.position))
