@@ -37,7 +37,7 @@ def child(kind: str, loop: str, timer: bool, report: str) -> None:
     import rclpy
     from rclpy.signals import SignalHandlerOptions
 
-    from phri_common.ros_main import make_executor, spin_until_stopped
+    from phri_common.ros_main import SliceSpinner, make_executor
 
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node("bench_executor")
@@ -79,7 +79,7 @@ def child(kind: str, loop: str, timer: bool, report: str) -> None:
         with contextlib.suppress(KeyboardInterrupt):
             executor.spin()
     elif loop == "slices":  # phri_common.ros_main.run_nodes
-        spin_until_stopped(executor, stop.is_set)
+        SliceSpinner(executor).spin_until(stop.is_set)
     else:
         while not stop.is_set():
             executor.spin_once(timeout_sec=0.1)

@@ -22,7 +22,7 @@ from rclpy.executors import SingleThreadedExecutor
 from phri_common.ros_main import EXECUTOR_ENV, EXECUTORS, make_executor
 
 CHILD = textwrap.dedent("""
-    import sys, time
+    import os, sys, time
     import rclpy
     from phri_common.ros_main import run_nodes
 
@@ -36,6 +36,10 @@ CHILD = textwrap.dedent("""
 
         def tick(self):
             self.ticks += 1
+            busy = float(os.environ.get("TICKER_BUSY_S", "0"))
+            end = time.monotonic() + busy
+            while time.monotonic() < end:
+                pass
 
         def destroy_node(self):
             print(f"destroyed {self.ticks / (time.monotonic() - self.start):.0f}", flush=True)
@@ -45,8 +49,9 @@ CHILD = textwrap.dedent("""
 """)
 
 
-def start_child(executor: str) -> subprocess.Popen[str]:
-    env = dict(os.environ, **{EXECUTOR_ENV: executor})
+def start_child(executor: str, busy_s: float = 0.0) -> subprocess.Popen[str]:
+    """The ticker child; ``busy_s`` > 0.002 makes each tick outlast its period (overload)."""
+    env = dict(os.environ, **{EXECUTOR_ENV: executor, "TICKER_BUSY_S": str(busy_s)})
     return subprocess.Popen([sys.executable, "-c", CHILD], env=env, text=True,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
 
@@ -131,7 +136,7 @@ def test_one_slice_runs_every_callback_due_in_it_then_returns(
     returns after the slice (a loop around it can see its stop flag)."""
     import rclpy
 
-    from phri_common.ros_main import spin_slice, spin_until_stopped
+    from phri_common.ros_main import SliceSpinner, spin_slice
 
     node = rclpy.create_node("slice_ticker", context=ros_context)
     ticks = [0]
@@ -151,7 +156,7 @@ def test_one_slice_runs_every_callback_due_in_it_then_returns(
             return calls[0] > 3
 
         start = time.monotonic()
-        spin_until_stopped(executor, stopped, slice_s=0.05)
+        SliceSpinner(executor, slice_s=0.05).spin_until(stopped)
         assert calls[0] == 4 and time.monotonic() - start < 1.0  # 3 slices, then stop
     finally:
         executor.shutdown()
@@ -181,3 +186,24 @@ def test_timer_callback_calls_through_and_declares_no_parameters(ros_context: Co
     finally:
         executor.shutdown()
         node.destroy_node()
+
+
+@pytest.mark.parametrize("executor", EXECUTORS)
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_run_nodes_stops_on_signal_while_overloaded(executor: str, sig: int) -> None:
+    """Each tick (3 ms) outlasts its 2 ms period, so a callback is always due: the process must
+    still stop within 2 s of the signal (a slice of the events executor never ends by its
+    timeout then; the signal must end it)."""
+    proc = start_child(executor, busy_s=0.003)
+    try:
+        assert proc.stdout is not None
+        assert proc.stdout.readline().strip() == "ready"
+        time.sleep(1.0)
+        proc.send_signal(sig)
+        out, err = proc.communicate(timeout=2.0)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0, err[-2000:]
+    assert "destroyed" in out
