@@ -138,7 +138,9 @@ def main() -> None:
         print(f"{link:<22}{len(values):>10}{len(values) / publish_seconds:>10.1f}"
               f"{max(0, frames - len(values)):>8}{np.median(lat):>12.2f}"
               f"{np.percentile(lat, 99):>12.2f}")
-    print(f"node CPU: {100 * (cpu1 - cpu0) / (wall1 - wall0):.0f} % of one core")
+    states = sum(len(values) for values in latencies.values())
+    print(f"node CPU: {100 * (cpu1 - cpu0) / (wall1 - wall0):.0f} % of one core, "
+          f"{1e6 * (cpu1 - cpu0) / max(states, 1):.0f} µs per contact state delivered")
 
 
 if __name__ == "__main__":

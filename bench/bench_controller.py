@@ -13,14 +13,16 @@
 2. ``mink``: ``mink.solve_ik`` on the same robot (same MuJoCo model, same joints) with three
    ``FrameTask``s on the same links, ``ConfigurationLimit`` and ``VelocityLimit``, with daqp and
    OSQP; timed per call including ``Configuration.update``.
-3. ``node`` (``--node-seconds``): the controller node at 500 Hz in this process, spun like
-   ``phri_common.ros_main.run_nodes`` (``PHRI_EXECUTOR``, default events), with its inputs
-   (joint states, odometry, three contact states at 500 Hz) published by a separate peer
-   process: loop period
-   median, p99 of |period − 2 ms|, max.
+3. ``node`` (``--node-seconds``; ``--node-only`` runs only this part): the controller node at
+   500 Hz in this process, spun like ``phri_common.ros_main.run_nodes`` (``PHRI_EXECUTOR``,
+   default events; 0.1 s slices, or ``--loop spin_once``), with its inputs (joint states,
+   odometry, three contact states at 500 Hz) published by a separate peer process: loop period
+   median, p99 of |period − 2 ms|, max, the tick's CPU time and the process's CPU (executor
+   thread and DDS threads).
 
 All cases are timed in interleaved rounds so that a change of machine load hits every row alike.
-Run: ``.venv/bin/python bench/bench_controller.py [--repeats 3000] [--node-seconds 5]``
+Run: ``.venv/bin/python bench/bench_controller.py [--repeats 3000] [--node-seconds 5]
+[--node-only] [--loop slices|spin_once]``
 Prints median and p99 in µs.
 """
 
@@ -329,11 +331,13 @@ def run_peer(seconds: float) -> None:
     rclpy.try_shutdown()
 
 
-def bench_node(seconds: float) -> None:
+def bench_node(seconds: float, loop: str = "slices") -> None:
+    """The controller node at 500 Hz in this process (module docstring, 3.), spun in 0.1 s
+    slices as ``run_nodes`` (``loop="slices"``) or with one ``spin_once`` per callback."""
     import rclpy
-    from geometry_msgs.msg import Twist
     from rclpy.parameter import Parameter
 
+    from phri_common import ros_main
     from phri_common.ros_main import EXECUTOR_ENV, EXECUTORS, make_executor
     from phri_common.testing import isolate_ros_environment
     from wholebody_controller.node import WholeBodyControllerNode
@@ -342,28 +346,27 @@ def bench_node(seconds: float) -> None:
     context = rclpy.Context()
     rclpy.init(context=context, domain_id=domain)
     ticks: list[int] = []
-
-    busy: list[int] = []
+    busy: list[int] = []  # CPU time of each tick [ns] (this thread)
 
     class TimedNode(WholeBodyControllerNode):
         def tick(self) -> None:
-            t0 = time.perf_counter_ns()
-            ticks.append(t0)
+            ticks.append(time.perf_counter_ns())
+            t0 = time.thread_time_ns()
             super().tick()
-            busy.append(time.perf_counter_ns() - t0)
+            busy.append(time.thread_time_ns() - t0)
 
     node = TimedNode(context=context, parameter_overrides=[Parameter("rate_hz", value=500.0)])
-    commands: list[int] = []
-    node.create_subscription(Twist, "/cmd_vel", lambda _m: commands.append(1), 10)
     peer = subprocess.Popen([sys.executable, __file__, "--peer", str(seconds + 70.0)])
     executor = make_executor(context=context)  # PHRI_EXECUTOR, as run_nodes
-    executor.add_node(node)
 
-    def spin_for(duration: float) -> None:
-        end = time.monotonic() + duration
-        while time.monotonic() < end:
+    def spin() -> None:
+        if loop == "slices":
+            ros_main.spin_slice(executor)  # (looked up here: the spin_once loop runs on trees
+            # without it, for a same-run before/after)
+        else:
             executor.spin_once(timeout_sec=0.1)
 
+    executor.add_node(node)
     # The peer process needs seconds to start on a loaded machine: wait for good cycles.
     deadline = time.monotonic() + 60.0
     while node.good_cycles < 500 and time.monotonic() < deadline:
@@ -371,9 +374,11 @@ def bench_node(seconds: float) -> None:
     if node.good_cycles < 500:
         print("\nnode: the input peer did not come up within 60 s")
     start, good0, zero0 = len(ticks), node.good_cycles, node.zero_cycles
-    cpu0, wall0 = time.process_time(), time.monotonic()
-    spin_for(seconds)
-    cpu = (time.process_time() - cpu0) / (time.monotonic() - wall0)
+    cpu0, main0, wall0 = time.process_time(), time.thread_time(), time.monotonic()
+    while time.monotonic() < wall0 + seconds:
+        spin()
+    wall = time.monotonic() - wall0
+    cpu, main = (time.process_time() - cpu0) / wall, (time.thread_time() - main0) / wall
     periods = np.diff(np.array(ticks[start:])) / 1e6  # ms
     tick_us = np.array(busy[start:]) / 1e3
     good, zero = node.good_cycles - good0, node.zero_cycles - zero0
@@ -384,11 +389,15 @@ def bench_node(seconds: float) -> None:
     context.try_shutdown()
     jitter = np.abs(periods - 2.0)
     kind = os.environ.get(EXECUTOR_ENV) or EXECUTORS[0]
-    print(f"\nnode at 500 Hz over {seconds:.0f} s (executor '{kind}', inputs from a peer "
-          f"process): {len(periods)} periods, median {np.median(periods):.3f} ms, jitter p99 "
-          f"{np.percentile(jitter, 99):.3f} ms, max {np.max(periods):.3f} ms; control cycles "
-          f"{good} good / {zero} zero; tick callback median {np.median(tick_us):.0f} µs, p99 "
-          f"{np.percentile(tick_us, 99):.0f} µs; process CPU {100 * cpu:.0f} % of one core")
+    per_period = 2e-3 * 1e6  # µs of CPU per 2 ms period per unit of "share of a core"
+    print(f"\nnode at 500 Hz over {seconds:.0f} s (executor '{kind}', loop '{loop}', inputs "
+          f"from a peer process): {len(periods)} periods, median {np.median(periods):.3f} ms, "
+          f"jitter p99 {np.percentile(jitter, 99):.3f} ms, max {np.max(periods):.3f} ms; control "
+          f"cycles {good} good / {zero} zero; tick callback CPU median {np.median(tick_us):.0f} "
+          f"µs, p99 {np.percentile(tick_us, 99):.0f} µs; process CPU {100 * cpu:.0f} % of one "
+          f"core ({cpu * per_period:.0f} µs per period: executor thread {main * per_period:.0f}, "
+          f"other threads {(cpu - main) * per_period:.0f}; {1e6 * cpu * wall / len(periods):.0f} "
+          "µs per tick run)")
 
 
 def main() -> None:
@@ -396,11 +405,17 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3000)
     parser.add_argument("--node-seconds", type=float, default=5.0)
     parser.add_argument("--skip-node", action="store_true")
+    parser.add_argument("--node-only", action="store_true", help="only the node part (3.)")
+    parser.add_argument("--loop", choices=("slices", "spin_once"), default="slices",
+                        help="how the node part drives the executor (default: as run_nodes)")
     parser.add_argument("--peer", type=float, default=None, help=argparse.SUPPRESS)
     args = parser.parse_args()
     print(load_line())
     if args.peer is not None:
         run_peer(args.peer)
+        return
+    if args.node_only:
+        bench_node(args.node_seconds, args.loop)
         return
     cases = controller_cases(args.repeats)
     cases.update(mink_cases())
@@ -411,7 +426,7 @@ def main() -> None:
     for name, result in results.items():
         row(name, result)
     if not args.skip_node:
-        bench_node(args.node_seconds)
+        bench_node(args.node_seconds, args.loop)
 
 
 if __name__ == "__main__":

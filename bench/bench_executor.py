@@ -2,8 +2,9 @@
 
 Each case runs in a child process: one node, optionally a 500 Hz timer, a Python thread that
 wakes every 2 ms (a stand-in for the skin driver's serial thread; its wake-up lateness shows
-whether the executor holds the GIL), spun either with ``spin()`` (the executor's own loop) or
-with ``spin_once(timeout_sec=0.1)`` in a Python loop (``phri_common.ros_main.run_nodes``). The
+whether the executor holds the GIL), spun with ``spin()`` (the executor's own loop), with
+``spin_once(timeout_sec=0.1)`` in a Python loop, or in 0.1 s slices of
+``spin_until_future_complete`` (``slices``: ``phri_common.ros_main.run_nodes``). The
 parent measures the child's CPU from ``/proc`` over ``--seconds``, then sends SIGINT and waits
 2 s (then SIGTERM, then SIGKILL). The child installs its own SIGINT/SIGTERM handlers that set a
 stop flag, as ``run_nodes`` does (and raise ``KeyboardInterrupt`` to leave ``spin()``, as
@@ -27,8 +28,8 @@ from pathlib import Path
 from phri_common.procstat import load_line, process_cpu_s
 from phri_common.testing import isolate_ros_environment
 
-CASES = [(ex, loop, timer) for ex in ("single", "events") for loop in ("spin_once", "spin")
-         for timer in (False, True)]
+CASES = [(ex, loop, timer) for ex in ("single", "events")
+         for loop in ("slices", "spin_once", "spin") for timer in (False, True)]
 
 
 def child(kind: str, loop: str, timer: bool, report: str) -> None:
@@ -36,7 +37,7 @@ def child(kind: str, loop: str, timer: bool, report: str) -> None:
     import rclpy
     from rclpy.signals import SignalHandlerOptions
 
-    from phri_common.ros_main import make_executor
+    from phri_common.ros_main import SliceSpinner, make_executor
 
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node("bench_executor")
@@ -77,6 +78,8 @@ def child(kind: str, loop: str, timer: bool, report: str) -> None:
     if loop == "spin":
         with contextlib.suppress(KeyboardInterrupt):
             executor.spin()
+    elif loop == "slices":  # phri_common.ros_main.run_nodes
+        SliceSpinner(executor).spin_until(stop.is_set)
     else:
         while not stop.is_set():
             executor.spin_once(timeout_sec=0.1)

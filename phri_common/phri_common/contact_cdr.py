@@ -23,8 +23,6 @@ from __future__ import annotations
 
 import struct
 
-import numpy as np
-from numpy.typing import NDArray
 from sensor_msgs.msg import PointField
 
 from phri_common.contact import _FIELDS, _STRUCT, contact_data, contact_from_values
@@ -63,10 +61,25 @@ def layout_template(fields: tuple[PointField, ...] | list[PointField],
     return bytes(out), bytes(mask)
 
 
+class Template:
+    """A fixed byte sequence with don't-care (padding) bytes, compared as masked integers: one
+    ``int.from_bytes`` and an ``&`` (≈ 0.5 µs) instead of numpy's per-call overhead (≈ 6 µs)."""
+
+    __slots__ = ("mask", "size", "value")
+
+    def __init__(self, fixed: bytes, mask: bytes) -> None:
+        if len(fixed) != len(mask):
+            raise ValueError(f"template of {len(fixed)} bytes, mask of {len(mask)}: must match")
+        self.size = len(fixed)
+        self.mask = int.from_bytes(mask, "little")
+        self.value = int.from_bytes(fixed, "little") & self.mask
+
+
 TEMPLATE, MASK = layout_template(_FIELDS, _STRUCT.size)
-_TEMPLATE = np.frombuffer(TEMPLATE, dtype=np.uint8)
-_MASK = np.frombuffer(MASK, dtype=np.uint8)
+_CONTACT_TEMPLATE = Template(TEMPLATE, MASK)
 _HEADER = struct.Struct("<iII")  # stamp sec, nanosec, frame_id length
+MAX_STAMP_NS = 2**31 * NS_PER_S
+"""First time stamp a message header cannot hold (its ``sec`` is an int32) [ns]."""
 
 
 def cloud_header(data: bytes) -> tuple[str, int, int] | None:
@@ -82,14 +95,12 @@ def cloud_header(data: bytes) -> tuple[str, int, int] | None:
     return frame_id, sec * NS_PER_S + nanosec, start + (-(start - 4) % 4)
 
 
-def matches(data: bytes, start: int, template: tuple[NDArray[np.uint8], NDArray[np.uint8]],
-            ) -> bool:
-    """Whether ``data`` holds ``template`` (bytes, mask) at ``start``, padding aside."""
-    fixed, mask = template
-    if len(data) < start + fixed.size:
+def matches(data: bytes, start: int, template: Template) -> bool:
+    """Whether ``data`` holds ``template`` at ``start``, padding aside."""
+    end = start + template.size
+    if len(data) < end:
         return False
-    found = np.frombuffer(data, dtype=np.uint8, count=fixed.size, offset=start)
-    return bool(np.array_equal(found & mask, fixed))
+    return int.from_bytes(data[start:end], "little") & template.mask == template.value
 
 
 def contact_from_cdr(data: bytes) -> ContactState | None:
@@ -103,16 +114,21 @@ def contact_from_cdr(data: bytes) -> ContactState | None:
         return None
     frame_id, stamp_ns, start = header
     end = start + len(TEMPLATE)
-    if len(data) < end + _STRUCT.size or not matches(data, start, (_TEMPLATE, _MASK)):
+    if len(data) < end + _STRUCT.size or not matches(data, start, _CONTACT_TEMPLATE):
         return None
     return contact_from_values(frame_id, stamp_ns, _STRUCT.unpack_from(data, end))
 
 
 def contact_to_cdr(state: ContactState) -> bytes:
-    """The serialized PointCloud2 of :func:`phri_common.contact.contact_to_msg` (``stamp_ns``
-    ≥ 0), ready for ``Publisher.publish``."""
-    if state.stamp_ns < 0:
-        raise ValueError(f"time stamp must be non-negative, got {state.stamp_ns} ns")
+    """The serialized PointCloud2 of :func:`phri_common.contact.contact_to_msg`, ready for
+    ``Publisher.publish``.
+
+    Raises:
+        ValueError: ``stamp_ns`` outside 0 ≤ stamp < :data:`MAX_STAMP_NS`.
+    """
+    if not 0 <= state.stamp_ns < MAX_STAMP_NS:
+        raise ValueError(f"time stamp = {state.stamp_ns} ns: allowed 0 <= stamp < "
+                         f"{MAX_STAMP_NS} ns (header.stamp.sec is an int32)")
     sec, nanosec = divmod(state.stamp_ns, NS_PER_S)
     name = state.link.encode() + b"\x00"
     head = b"\x00\x01\x00\x00" + _HEADER.pack(sec, nanosec, len(name)) + name

@@ -13,10 +13,9 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
-from numpy.typing import NDArray
 
 from phri_common.cloud import point_fields
-from phri_common.contact_cdr import cloud_header, layout_template, matches
+from phri_common.contact_cdr import Template, cloud_header, layout_template, matches
 from phri_common.records import TaxelArray
 from phri_common.taxels import _DTYPE, _DTYPE_WEIGHTED
 
@@ -25,10 +24,9 @@ _WIDTH_OFFSET = 4
 
 
 @lru_cache(maxsize=32)
-def _template(weighted: bool, width: int) -> tuple[NDArray[np.uint8], NDArray[np.uint8]]:
+def _template(weighted: bool, width: int) -> Template:
     dtype = _DTYPE_WEIGHTED if weighted else _DTYPE
-    fixed, mask = layout_template(point_fields(dtype), dtype.itemsize, width)
-    return np.frombuffer(fixed, dtype=np.uint8), np.frombuffer(mask, dtype=np.uint8)
+    return Template(*layout_template(point_fields(dtype), dtype.itemsize, width))
 
 
 def taxels_from_cdr(data: bytes) -> TaxelArray | None:
@@ -46,7 +44,7 @@ def taxels_from_cdr(data: bytes) -> TaxelArray | None:
         template = _template(weighted, width)
         if matches(data, start, template):
             columns = 8 if weighted else 7
-            offset = start + template[0].size
+            offset = start + template.size
             if len(data) < offset + 4 * columns * width:
                 return None
             table = np.frombuffer(data, dtype=np.float32, count=columns * width,

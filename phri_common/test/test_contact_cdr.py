@@ -18,7 +18,7 @@ from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import PointCloud2, PointField
 
 from phri_common.contact import ContactMessageError, contact_to_msg, msg_to_contact
-from phri_common.contact_cdr import contact_from_cdr, contact_to_cdr
+from phri_common.contact_cdr import MAX_STAMP_NS, contact_from_cdr, contact_to_cdr
 from phri_common.records import ContactState
 
 finite = st.floats(-1e6, 1e6, allow_nan=False)
@@ -28,7 +28,8 @@ vector = st.tuples(finite, finite, finite)
 @settings(max_examples=150, deadline=None, derandomize=True)
 @given(link=st.text(st.characters(min_codepoint=33, max_codepoint=0x2FF), min_size=1,
                     max_size=23),
-       stamp=st.integers(0, 2**62), touched=st.booleans(), count=st.integers(0, 2**32 - 1),
+       stamp=st.integers(0, MAX_STAMP_NS - 1), touched=st.booleans(),
+       count=st.integers(0, 2**32 - 1),
        vectors=st.tuples(vector, vector, vector, vector, vector))
 def test_phri_layout_decodes_exactly_as_the_reference(link: str, stamp: int, touched: bool,
                                                       count: int, vectors: tuple) -> None:
@@ -95,10 +96,20 @@ def test_not_cdr_little_endian_is_declined() -> None:
     assert contact_from_cdr(b"") is None
 
 
+def test_a_stamp_beyond_the_headers_int32_seconds_is_refused_naming_the_range() -> None:
+    # 2**31 s: header.stamp.sec is an int32 (rclpy's Time refuses it too).
+    with pytest.raises(ValueError, match=r"time stamp = 2147483648000000000 ns: allowed 0 <="):
+        contact_to_cdr(ContactState.no_contact("l", 2**31 * 10**9))
+    with pytest.raises(ValueError, match=r"time stamp = -1 ns"):
+        contact_to_cdr(ContactState.no_contact("l", -1))
+    contact_to_cdr(ContactState.no_contact("l", 2**31 * 10**9 - 1))  # the last one that fits
+
+
 @settings(max_examples=100, deadline=None, derandomize=True)
 @given(link=st.text(st.characters(min_codepoint=33, max_codepoint=0x2FF), min_size=1,
                     max_size=23),
-       stamp=st.integers(0, 2**62), touched=st.booleans(), count=st.integers(0, 2**32 - 1),
+       stamp=st.integers(0, MAX_STAMP_NS - 1), touched=st.booleans(),
+       count=st.integers(0, 2**32 - 1),
        vectors=st.tuples(vector, vector, vector, vector, vector))
 def test_encoder_writes_what_rclpy_reads_as_contact_to_msg(link: str, stamp: int,
                                                             touched: bool, count: int,

@@ -22,7 +22,7 @@ from rclpy.executors import SingleThreadedExecutor
 from phri_common.ros_main import EXECUTOR_ENV, EXECUTORS, make_executor
 
 CHILD = textwrap.dedent("""
-    import sys, time
+    import os, sys, time
     import rclpy
     from phri_common.ros_main import run_nodes
 
@@ -36,6 +36,10 @@ CHILD = textwrap.dedent("""
 
         def tick(self):
             self.ticks += 1
+            busy = float(os.environ.get("TICKER_BUSY_S", "0"))
+            end = time.monotonic() + busy
+            while time.monotonic() < end:
+                pass
 
         def destroy_node(self):
             print(f"destroyed {self.ticks / (time.monotonic() - self.start):.0f}", flush=True)
@@ -45,8 +49,9 @@ CHILD = textwrap.dedent("""
 """)
 
 
-def start_child(executor: str) -> subprocess.Popen[str]:
-    env = dict(os.environ, **{EXECUTOR_ENV: executor})
+def start_child(executor: str, busy_s: float = 0.0) -> subprocess.Popen[str]:
+    """The ticker child; ``busy_s`` > 0.002 makes each tick outlast its period (overload)."""
+    env = dict(os.environ, **{EXECUTOR_ENV: executor, "TICKER_BUSY_S": str(busy_s)})
     return subprocess.Popen([sys.executable, "-c", CHILD], env=env, text=True,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
 
@@ -121,3 +126,81 @@ def test_interfaces_page_documents_the_executor_variable_its_values_and_default(
     cells = [c.strip() for c in rows[0].strip("|").split("|")]
     assert cells[1] == ", ".join(f"`{v}`" for v in EXECUTORS)
     assert cells[2] == f"`{EXECUTORS[0]}`"
+
+
+def test_one_slice_runs_every_callback_due_in_it_then_returns(ros_context: Context) -> None:
+    """spin_slice runs a 500 Hz timer ≈ 100 times in 0.2 s in ONE call (spin_once: once) and
+    returns after the slice (a loop around it can see its stop flag)."""
+    import rclpy
+
+    from phri_common.ros_main import SliceSpinner, spin_slice
+
+    node = rclpy.create_node("slice_ticker", context=ros_context)
+    ticks = [0]
+    node.create_timer(0.002, lambda: ticks.__setitem__(0, ticks[0] + 1))
+    executor = make_executor("events", context=ros_context)
+    executor.add_node(node)
+    try:
+        start = time.monotonic()
+        spin_slice(executor, 0.2)
+        elapsed = time.monotonic() - start
+        assert 0.19 <= elapsed < 1.0
+        assert ticks[0] >= 40  # ≈ 100 on a quiet machine; one call, many callbacks
+        calls = [0]
+
+        def stopped() -> bool:
+            calls[0] += 1
+            return calls[0] > 3
+
+        start = time.monotonic()
+        SliceSpinner(executor, slice_s=0.05).spin_until(stopped)
+        assert calls[0] == 4 and time.monotonic() - start < 1.0  # 3 slices, then stop
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+
+
+def test_timer_callback_calls_through_and_declares_no_parameters(ros_context: Context) -> None:
+    """What EventsExecutor inspects at every timer call is attached: no parameters (so no
+    TimerInfo is passed), and the timer still runs the wrapped callback."""
+    import inspect
+
+    import rclpy
+
+    from phri_common.ros_main import spin_slice, timer_callback
+
+    calls: list[int] = []
+    wrapped = timer_callback(lambda: calls.append(1))
+    assert inspect.signature(wrapped).parameters == {}
+    assert "__signature__" in vars(wrapped)
+    node = rclpy.create_node("timer_callback_test", context=ros_context)
+    node.create_timer(0.002, wrapped)
+    executor = make_executor("events", context=ros_context)
+    executor.add_node(node)
+    try:
+        spin_slice(executor, 0.1)
+        assert len(calls) >= 10
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+
+
+@pytest.mark.parametrize("executor", EXECUTORS)
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_run_nodes_stops_on_signal_while_overloaded(executor: str, sig: int) -> None:
+    """Each tick (3 ms) outlasts its 2 ms period, so a callback is always due: the process must
+    still stop within 2 s of the signal (a slice of the events executor never ends by its
+    timeout then; the signal must end it)."""
+    proc = start_child(executor, busy_s=0.003)
+    try:
+        assert proc.stdout is not None
+        assert proc.stdout.readline().strip() == "ready"
+        time.sleep(1.0)
+        proc.send_signal(sig)
+        out, err = proc.communicate(timeout=2.0)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0, err[-2000:]
+    assert "destroyed" in out

@@ -11,15 +11,19 @@ from collections.abc import Iterator
 
 import numpy as np
 import pytest
+from geometry_msgs.msg import Twist
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from nav_msgs.msg import Odometry
 from numpy.typing import NDArray
+from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
 from wbc_fake_kinematics import FakeKinematics
 
 from phri_common.contact import contact_to_msg
 from phri_common.records import ContactState
+from wholebody_controller.messages import arm_command, command_to_twist
 from wholebody_controller.node import WholeBodyControllerNode
 from wholebody_controller.qp import QPError
 
@@ -45,7 +49,7 @@ class RecordingNode(WholeBodyControllerNode):
         super().publish_command(command)
 
     def feed(self, force: NDArray[np.float64] | None = PUSH, joints: list[float] | None = None,
-             odom_x: float = 0.0) -> None:
+             odom_x: float = 0.0, serialized: bool = False) -> None:
         """One period's inputs (contacts on every link, joint states, odometry)."""
         for link in self.links:
             state = ContactState.no_contact(link, self.now_ns)
@@ -53,11 +57,16 @@ class RecordingNode(WholeBodyControllerNode):
                 state = ContactState(link, self.now_ns, True, CENTER, force, np.zeros(3),
                                      CENTER - 0.02, CENTER + 0.02, 16)
             self.on_contact(link, contact_to_msg(state))
-        self.on_joints(JointState(name=list(self.arm_joints), position=joints or ARM))
+        js = JointState(name=list(self.arm_joints), position=joints or ARM)
         odom = Odometry()
         odom.pose.pose.position.x = odom_x
         odom.pose.pose.orientation.w = 1.0
-        self.on_odom(odom)
+        if serialized:  # the subscriptions' path (raw=True)
+            self.on_joints_bytes(serialize_message(js))
+            self.on_odom_bytes(serialize_message(odom))
+        else:
+            self.on_joints(js)
+            self.on_odom(odom)
 
     def cycle(self, **inputs: object) -> NDArray[np.float64]:
         """Advance one period, feed the inputs, run one control cycle; its command."""
@@ -164,3 +173,50 @@ def test_per_axis_velocity_limits_reach_the_controller(node: RecordingNode) -> N
                                np.minimum(limits, node.kinematics.velocity_limits))
     result = node.set_parameters([Parameter("velocity_limits", value=[0.5] * 14)])
     assert not result[0].successful and "velocity_limits" in result[0].reason
+
+
+def test_serialized_inputs_command_as_the_messages_do(ros_context: object) -> None:
+    """The raw=True path (phri_common.cdr) and the message path: the same commands, cycle by
+    cycle, through a refused joint state (F9) and an odometry jump."""
+    runs = []
+    for serialized in (False, True):
+        n = RecordingNode(ros_context)
+        bad = list(ARM)
+        bad[2] = 10.0
+        inputs = [{}, {}, {"joints": bad}, {}, {"odom_x": 3.0}, {"odom_x": 3.0}, {}, {}]
+        runs.append([n.cycle(serialized=serialized, **kw) for kw in inputs])  # type: ignore
+        n.destroy_node()
+    np.testing.assert_array_equal(np.array(runs[0]), np.array(runs[1]))
+    assert moving(runs[1][1]) and not moving(runs[1][2]) and not moving(runs[1][4])
+
+
+@pytest.mark.parametrize("which", ["joints", "odometry"])
+def test_unreadable_serialized_input_is_refused_then_recovers(
+        node: RecordingNode, which: str) -> None:
+    for _ in range(3):
+        assert moving(node.cycle(serialized=True))
+    refused = node.rejected_inputs
+    node.now_ns += PERIOD_NS
+    node.feed(serialized=True)
+    garbage = b"\x00\x01\x00\x00" + b"\xff" * 12  # a frame_id length of 4 GB
+    (node.on_joints_bytes if which == "joints" else node.on_odom_bytes)(garbage)
+    node.tick()
+    assert not moving(node.commands[-1])  # F9: refused = never received: zero this cycle
+    assert node.rejected_inputs == refused + 1
+    assert moving(node.cycle(serialized=True))  # the next good message recovers
+
+
+def test_commands_are_published_as_the_reference_messages(node: RecordingNode) -> None:
+    """The serialized commands (phri_common.cdr) read back as messages.command_to_twist and
+    messages.arm_command build them."""
+    sent: dict[str, list[object]] = {"cmd": [], "left": [], "right": []}
+    for key, pub in (("cmd", node.cmd_pub), ("left", node.left_pub), ("right", node.right_pub)):
+        pub.publish = sent[key].append  # type: ignore[method-assign]
+    command = node.cycle()
+    assert moving(command)
+    twist = deserialize_message(sent["cmd"][-1], Twist)  # type: ignore[arg-type]
+    left = deserialize_message(sent["left"][-1], Float64MultiArray)  # type: ignore[arg-type]
+    right = deserialize_message(sent["right"][-1], Float64MultiArray)  # type: ignore[arg-type]
+    assert twist == command_to_twist(command)
+    assert left == arm_command(command[3:9], node.left_joints)
+    assert right == arm_command(command[9:15], node.right_joints)

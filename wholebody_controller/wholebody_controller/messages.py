@@ -97,30 +97,48 @@ def odom_to_base(msg: Odometry) -> Array:
     """
     p = msg.pose.pose.position
     o = msg.pose.pose.orientation
-    values = np.array([p.x, p.y, o.x, o.y, o.z, o.w], dtype=np.float64)
-    if not np.all(np.isfinite(values)):
-        raise InputError(f"odometry holds non-finite values: {values}")
-    norm = math.sqrt(o.x**2 + o.y**2 + o.z**2 + o.w**2)
+    return pose_to_base((p.x, p.y, p.z, o.x, o.y, o.z, o.w))
+
+
+def pose_to_base(pose: Sequence[float]) -> Array:
+    """An odometry pose ``(x, y, z, qx, qy, qz, qw)`` → q_b = [x, y, yaw] [m, m, rad]
+    (z is not used; :func:`phri_common.cdr.odometry_pose_from_cdr` gives this tuple).
+
+    Raises:
+        InputError: non-finite x, y or quaternion, or a quaternion far from unit length.
+    """
+    x, y, _z, qx, qy, qz, qw = pose
+    values = (x, y, qx, qy, qz, qw)
+    if not all(math.isfinite(v) for v in values):
+        raise InputError(f"odometry holds non-finite values: {list(values)}")
+    norm = math.sqrt(qx**2 + qy**2 + qz**2 + qw**2)
     if not 0.5 < norm < 1.5:
         raise InputError(f"odometry quaternion has norm {norm:.3g}")
-    return np.array([p.x, p.y, yaw_from_quaternion(o.w, o.x, o.y, o.z)])
+    return np.array([x, y, yaw_from_quaternion(qw, qx, qy, qz)])
 
 
 def joint_positions(msg: JointState) -> dict[str, float]:
-    """``sensor_msgs/JointState`` → positions by joint name [rad].
+    """``sensor_msgs/JointState`` → positions by joint name [rad] (see :func:`positions_by_name`).
 
     Raises:
         InputError: names and positions differ in length, or a position is not finite.
     """
-    if len(msg.name) != len(msg.position):
-        raise InputError(
-            f"joint state has {len(msg.name)} names but {len(msg.position)} positions"
-        )
-    positions = np.asarray(msg.position, dtype=np.float64)
-    if not np.all(np.isfinite(positions)):
-        bad = [n for n, v in zip(msg.name, positions, strict=True) if not math.isfinite(v)]
+    return positions_by_name(msg.name, msg.position)
+
+
+def positions_by_name(names: Sequence[str], positions: Sequence[float]) -> dict[str, float]:
+    """A joint state's ``name`` and ``position`` → positions by joint name [rad].
+
+    Raises:
+        InputError: names and positions differ in length, or a position is not finite.
+    """
+    if len(names) != len(positions):
+        raise InputError(f"joint state has {len(names)} names but {len(positions)} positions")
+    values = [float(v) for v in positions]
+    if not all(math.isfinite(v) for v in values):
+        bad = [n for n, v in zip(names, values, strict=True) if not math.isfinite(v)]
         raise InputError(f"joint state holds non-finite positions for {bad}")
-    return dict(zip(msg.name, positions.tolist(), strict=True))
+    return dict(zip(names, values, strict=True))
 
 
 def task_state_to_msg(

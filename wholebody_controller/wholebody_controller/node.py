@@ -34,11 +34,18 @@ from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 
+from phri_common.cdr import (
+    CdrError,
+    Float64ArrayEncoder,
+    joint_state_from_cdr,
+    odometry_pose_from_cdr,
+    twist_to_cdr,
+)
 from phri_common.contact import ContactMessageError, msg_to_contact
 from phri_common.contact_cdr import contact_from_cdr
 from phri_common.params import ParamValue
 from phri_common.records import ContactState
-from phri_common.ros_main import run_nodes
+from phri_common.ros_main import run_nodes, timer_callback
 from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
 from wholebody_controller.contact_safety import Safety
@@ -51,10 +58,9 @@ from wholebody_controller.input_checks import (
     check_odometry_jump,
 )
 from wholebody_controller.messages import (
-    arm_command,
-    command_to_twist,
-    joint_positions,
     odom_to_base,
+    pose_to_base,
+    positions_by_name,
     safety_status,
     task_state_to_msg,
 )
@@ -135,6 +141,10 @@ class WholeBodyControllerNode(Node):
 
     def _create_interfaces(self) -> None:
         """Publishers, subscriptions, services and timers (see the module docstring)."""
+        # Commands are published as serialized bytes (phri_common.cdr): same messages, without
+        # building three message objects per cycle.
+        self._arm_encoders = (Float64ArrayEncoder(",".join(self.left_joints), 6),
+                              Float64ArrayEncoder(",".join(self.right_joints), 6))
         self.cmd_pub = self.create_publisher(Twist, "/cmd_vel", 10)
         self.left_pub = self.create_publisher(
             Float64MultiArray, "left/forward_velocity_controller/commands", 10
@@ -153,15 +163,18 @@ class WholeBodyControllerNode(Node):
                 lambda data, link=link: self.on_contact_bytes(link, data),
                 qos_profile_sensor_data, raw=True,
             )
-        self.create_subscription(JointState, "/joint_states", self.on_joints,
-                                 qos_profile_sensor_data)
-        self.create_subscription(Odometry, "/odom", self.on_odom, qos_profile_sensor_data)
+        # Joint states and odometry too: phri_common.cdr reads the few fields used.
+        self.create_subscription(JointState, "/joint_states", self.on_joints_bytes,
+                                 qos_profile_sensor_data, raw=True)
+        self.create_subscription(Odometry, "/odom", self.on_odom_bytes, qos_profile_sensor_data,
+                                 raw=True)
         self.create_service(Trigger, "~/record_q_dance", self._record_q_dance)
         self.create_service(Trigger, "~/release_q_dance", self._release_q_dance)
         self.create_service(Trigger, "~/reset", self._reset)
         self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         period = 1.0 / float(self.params["rate_hz"])
-        self.timer = self.create_timer(period, self.tick)
+        # timer_callback: the executor inspects the callback's signature at every call.
+        self.timer = self.create_timer(period, timer_callback(lambda: self.tick()))
         self.diag_timer = self.create_timer(1.0, self.publish_diagnostics)
 
     # -- parameters -----------------------------------------------------------------------------
@@ -231,23 +244,65 @@ class WholeBodyControllerNode(Node):
         self._refuse(f"contact state of {link}", err)
         self.freshness.contact_refused(link)  # F9
 
-    def on_joints(self, msg: JointState) -> None:
+    def on_joints_bytes(self, data: bytes) -> None:
+        """A serialized joint state (the subscription's path)."""
         try:
-            positions = joint_positions(msg)
+            decoded = joint_state_from_cdr(data)
+        except CdrError as err:
+            self._refuse("joint state", err)
+            self.freshness.joints_refused(set(self.arm_joints))  # F9: names unreadable
+            return
+        if decoded is None:  # big-endian: the reference deserializer
+            self.on_joints(deserialize_message(data, JointState))
+        else:
+            self.take_joints(*decoded)
+
+    def on_joints(self, msg: JointState) -> None:
+        """A joint state message."""
+        self.take_joints(msg.name, msg.position)
+
+    def take_joints(self, names: Sequence[str], position: Sequence[float]) -> None:
+        """Check a joint state's names and positions [rad] and keep them (or refuse them)."""
+        try:
+            positions = positions_by_name(names, position)
             check_joint_positions(positions, self.joint_limits,
                                   float(self.params["joint_limit_margin"]))
         except InputError as err:
             self._refuse("joint state", err)
-            self.freshness.joints_refused(set(msg.name) or set(self.arm_joints))  # F9
+            self.freshness.joints_refused(set(names) or set(self.arm_joints))  # F9
             return
         for i, name in enumerate(self.arm_joints):
             if name in positions:
                 self.arm_q[i] = positions[name]
         self.freshness.joints_arrived(positions.keys(), self.now_s())
 
+    def on_odom_bytes(self, data: bytes) -> None:
+        """Serialized odometry (the subscription's path)."""
+        try:
+            pose = odometry_pose_from_cdr(data)
+            if pose is None:  # big-endian: the reference deserializer
+                self.on_odom(deserialize_message(data, Odometry))
+                return
+            base = pose_to_base(pose)
+        except (CdrError, InputError) as err:
+            self._refuse("odometry", err)
+            self.freshness.odom_refused()  # F9
+            return
+        self.take_base(base)
+
     def on_odom(self, msg: Odometry) -> None:
+        """An odometry message."""
         try:
             base = odom_to_base(msg)
+        except InputError as err:
+            self._refuse("odometry", err)
+            self.freshness.odom_refused()  # F9
+            return
+        self.take_base(base)
+
+    def take_base(self, base: NDArray[np.float64]) -> None:
+        """Check an odometry base pose q_b = [x, y, yaw] for a jump and keep it (or refuse it)."""
+        try:
             previous, self._last_odom = self._last_odom, base.tolist()
             check_odometry_jump(previous, self._last_odom, float(self.params["max_odom_jump"]))
         except InputError as err:
@@ -291,9 +346,11 @@ class WholeBodyControllerNode(Node):
 
     def publish_command(self, command: NDArray[np.float64]) -> None:
         """The base twist (base frame) and both arms' joint velocities of ``command`` (15)."""
-        self.cmd_pub.publish(command_to_twist(command))
-        self.left_pub.publish(arm_command(command[3:9], self.left_joints))
-        self.right_pub.publish(arm_command(command[9:15], self.right_joints))
+        values = command.tolist()
+        left, right = self._arm_encoders
+        self.cmd_pub.publish(twist_to_cdr(values[0], values[1], values[2]))
+        self.left_pub.publish(left.encode(values[3:9]))
+        self.right_pub.publish(right.encode(values[9:15]))
 
     def tick(self) -> None:
         """One control cycle (timer callback)."""
