@@ -40,7 +40,7 @@ from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
 from phri_common.taxels import TaxelCloudEncoder
 from skin_driver.board_clock import BoardClock
-from skin_driver.calibration import CalibrationConfig, PatchCalibrator
+from skin_driver.calibration import KERNELS, CalibrationConfig, PatchCalibrator
 from skin_driver.diagnostics import BoardSnapshot, PortSnapshot, board_status, port_status
 from skin_driver.layout import LayoutError, SkinLayout, load_layout
 from skin_driver.protocol import MAX_TAXELS, BoardSequence, Frame, FrameParser
@@ -99,6 +99,8 @@ PARAMS: list[ParamSpec] = [
               "published; 0 = every frame. Lower it only when the frames also reach the "
               "estimator directly (skin_contact_node)", unit="Hz", low=0.0, high=10_000.0,
               read_only=True),
+    ParamSpec("kernel", KERNELS[1], "how a frame is calibrated: numba (compiled, default) or "
+              "numpy (the reference); same forces to rounding", read_only=True),
     ParamSpec("qos_depth", 5, "keep-last depth of the taxel publishers (reliable)",
               unit="messages", low=1, high=1000, read_only=True),
 ]
@@ -110,7 +112,14 @@ def _period_s(rate_hz: float) -> float:
 
 
 def calibration_config(values: dict[str, ParamValue]) -> CalibrationConfig:
-    """Parameter values → calibration settings (pure)."""
+    """Parameter values → calibration settings (pure).
+
+    Raises:
+        ParameterValueError: ``kernel`` not one of :data:`~skin_driver.calibration.KERNELS`.
+    """
+    if values["kernel"] not in KERNELS:
+        raise ParameterValueError(f"parameter 'kernel' refused value {values['kernel']!r}: "
+                                  f"allowed {', '.join(KERNELS)}")
     return CalibrationConfig(
         default_gain=float(values["default_gain"]),
         default_offset=float(values["default_offset"]),
@@ -122,6 +131,7 @@ def calibration_config(values: dict[str, ParamValue]) -> CalibrationConfig:
         release_time_constant=float(values["release_time_constant"]),
         saturation_count=int(values["saturation_count"]),
         stuck_time=float(values["stuck_time"]),
+        kernel=str(values["kernel"]),
     )
 
 
