@@ -189,10 +189,11 @@ class PatchCalibrator:
         self._stuck = np.zeros(size, bool)
         self._saturated = 0
         self._filtered = np.zeros(size)
-        if config.kernel == "numba":
-            from skin_driver import fused
+        if config.kernel == "numba":  # imported here: numba only where it is used
+            from skin_driver.fused import calibrate_counts, track_drift_and_output, warm_up
 
-            fused.warm_up()
+            warm_up()
+            self._kernels = (calibrate_counts, track_drift_and_output)
         self.tare()
 
     @property
@@ -265,15 +266,14 @@ class PatchCalibrator:
 
     def _process_fused(self, counts: NDArray[np.integer], t: float) -> FloatArray | None:
         """:meth:`process` with the compiled kernels (:mod:`skin_driver.fused`)."""
-        from skin_driver import fused
-
+        calibrate_counts, track_drift_and_output = self._kernels
         cfg = self.config
         window = cfg.filter_window
         full = self._ring_count == window
         self._ring_count = window if full else self._ring_count + 1
         pos = self._ring_pos
         taring = self._tare_left > 0
-        self._saturated = fused.calibrate_counts(
+        self._saturated = calibrate_counts(
             np.ascontiguousarray(counts), self._gain, self._offset,
             cfg.saturation_count, cfg.stuck_time, t, self._last_counts, self._last_change,
             self._stuck, self._ring, self._ring_sum, pos, full, self._ring_count, taring,
@@ -287,7 +287,7 @@ class PatchCalibrator:
                 self._finish_tare()
             return None
         out = np.empty(self.size)
-        fused.track_drift_and_output(
+        track_drift_and_output(
             self._filtered, self._baseline, self._dead_static, self._stuck,
             cfg.drift_time_constant > 0 and dt > 0, cfg.drift_band,
             min(dt / cfg.drift_time_constant, 1.0) if cfg.drift_time_constant > 0 else 0.0,
