@@ -6,11 +6,20 @@ with the time the chunk arrived, and when the device disappears (unplug, the pty
 closes, the socket drops) it closes the port and retries with exponential back-off until the
 device is back or :meth:`SerialReader.stop` is called. No exception escapes the thread: a failing
 ``on_data`` is reported through ``on_error`` and reading goes on.
+
+On a POSIX serial device (a tty, a pty) the thread reads the file descriptor itself: one
+``select`` and one ``os.read`` of everything buffered per wake-up. pyserial's ``read`` with
+``in_waiting`` costs a ``select``, a one-byte read, an ``ioctl`` and a second read for the same
+data — three extra system calls, each a GIL release and re-acquisition that other threads of
+the process (the composed ``skin_contact_node`` runs three readers) then contend for. Other
+URLs (``socket://``, ``loop://``) go through pyserial's ``read``.
 """
 
 from __future__ import annotations
 
 import contextlib
+import os
+import select
 import threading
 import time
 from collections.abc import Callable
@@ -155,10 +164,10 @@ class SerialReader:
 
     def _read_until_error(self) -> None:
         port = self._port
+        fd = _posix_fd(port)
         while not self._stop.is_set():
             try:
-                waiting = port.in_waiting
-                chunk = port.read(min(max(waiting, 1), READ_CHUNK_MAX))
+                chunk = self._read_fd(fd) if fd is not None else self._read_port(port)
             except Exception as err:  # SerialException, OSError (EIO on unplug), …
                 self._report(f"lost {self.url}: {err}")
                 return
@@ -169,3 +178,40 @@ class SerialReader:
                 self._on_data(chunk, self._clock())
             except Exception as err:  # the reader must outlive a bad handler
                 self._report(f"error handling data from {self.url}: {err!r}")
+
+    def _read_port(self, port: Any) -> bytes:
+        """Everything buffered (at least one byte, or b"" after the read timeout), through
+        pyserial's ``read``."""
+        return bytes(port.read(min(max(port.in_waiting, 1), READ_CHUNK_MAX)))
+
+    def _read_fd(self, fd: int) -> bytes:
+        """Everything buffered on a non-blocking POSIX descriptor, or b"" after the read
+        timeout: one ``select``, one ``os.read`` (module docstring).
+
+        Raises:
+            serial.SerialException: the device is gone (ready but no data: hang-up).
+            OSError: the read failed (EIO when the device is unplugged or the pty closed).
+        """
+        ready, _, _ = select.select([fd], [], [], self._read_timeout)
+        if not ready:
+            return b""
+        try:
+            chunk = os.read(fd, READ_CHUNK_MAX)
+        except BlockingIOError:
+            return b""
+        if not chunk:
+            raise serial.SerialException("device reports readiness to read but returned no "
+                                         "data (device disconnected?)")
+        return chunk
+
+
+def _posix_fd(port: Any) -> int | None:
+    """The open, non-blocking file descriptor of a POSIX pyserial port; None for anything else
+    (sockets, loop://, test doubles), which are read through pyserial."""
+    posix = getattr(serial, "serialposix", None)
+    if posix is None or not isinstance(port, posix.Serial):
+        return None
+    fd = getattr(port, "fd", None)
+    if not isinstance(fd, int) or os.get_blocking(fd):
+        return None
+    return fd
