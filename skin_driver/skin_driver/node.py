@@ -23,6 +23,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
+import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.context import Context
 from rclpy.node import Node
@@ -40,7 +41,7 @@ from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
 from phri_common.taxels import TaxelCloudEncoder
 from skin_driver.board_clock import BoardClock
-from skin_driver.calibration import KERNELS, CalibrationConfig, PatchCalibrator
+from skin_driver.calibration import KERNELS, CalibrationConfig, FloatArray, PatchCalibrator
 from skin_driver.diagnostics import BoardSnapshot, PortSnapshot, board_status, port_status
 from skin_driver.layout import LayoutError, SkinLayout, load_layout
 from skin_driver.protocol import MAX_TAXELS, BoardSequence, Frame, FrameParser
@@ -186,6 +187,21 @@ class _Channel:
     """Sequence gaps of the frames accepted for this board (dropped = gaps only)."""
     clock: BoardClock = field(default_factory=BoardClock)
     next_publish_mono: float = 0.0
+    geometry: tuple[FloatArray, FloatArray, FloatArray | None] = field(init=False)
+    """Read-only copies of the layout's positions, normals and weights: a TaxelArray built
+    from them (and from read-only forces) copies nothing (phri_common.records.frozen)."""
+
+    def __post_init__(self) -> None:
+        self.geometry = (_read_only(self.layout.positions), _read_only(self.layout.normals),
+                         None if self.layout.weights is None
+                         else _read_only(self.layout.weights))
+
+
+def _read_only(array: FloatArray) -> FloatArray:
+    """A read-only copy of ``array``."""
+    copy = np.array(array, dtype=np.float64)
+    copy.flags.writeable = False
+    return copy
 
 
 class SkinDriverNode(Node):
@@ -330,11 +346,12 @@ class SkinDriverNode(Node):
         if forces is None:
             return
         if self._listeners:
-            layout = channel.layout
-            taxels = TaxelArray(layout.positions, layout.normals, forces, layout.weights,
-                                layout.link, stamp_ns)
+            forces.flags.writeable = False  # a fresh array per frame, now shared read-only
+            positions, normals, weights = channel.geometry
+            taxels = TaxelArray(positions, normals, forces, weights, channel.layout.link,
+                                stamp_ns)
             for listener in self._listeners:
-                listener(layout.patch, taxels)
+                listener(channel.layout.patch, taxels)
         if mono >= channel.next_publish_mono:
             channel.publisher.publish(channel.encoder.encode(forces, stamp_ns))
             channel.published += 1
