@@ -66,21 +66,27 @@ PRESS_RADIUS = 0.012
 """Press radius [m]: a few taxels, each well above the driver's tare_max_shift (0.5 N)."""
 FILTER_WINDOW = 10
 """The driver's moving-average window (its default, the paper's)."""
+SILENCE_NS = 0.1e9
+"""The driver's silence_timeout [ns] (its default): a board quiet this long restarts its
+moving average."""
 
 
 # -- simulated boards ---------------------------------------------------------------------------
 def _board_process(index: int, port: str, layout_file: str, rate: float, stop: Any,
                    queue: Any) -> None:
     """One board on its own pty, pressed with the coded force; report per frame sent:
-    (board time [ns], write end [ns, wall clock], press force [µN])."""
+    (board time [ns], write end [ns, wall clock], press force [µN], cut off: 1 when the pty
+    was full for the write timeout and the frame's tail was dropped, as a UART would)."""
     from skin_driver.layout import load_layout
     from skin_driver.sim_board import PtyEndpoint, SimBoard, press_pattern, run_boards
 
     layout = load_layout(layout_file)
     board = SimBoard(0, layout, noise_counts=2.0, seed=index)
     unit = press_pattern(layout, force=1.0, radius=PRESS_RADIUS, period=0.0)(0.0)
-    sent: list[tuple[int, int, int]] = []
+    sent: list[tuple[int, int, int, int]] = []
     last = [0.0, 0.0]
+    endpoints: list[PtyEndpoint] = []
+    overflows = [0]
 
     def pattern(t: float) -> Any:
         force = F0 + DELTA * (round(t * rate) % MODULUS)
@@ -88,11 +94,17 @@ def _board_process(index: int, port: str, layout_file: str, rate: float, stop: A
         return unit * force
 
     def on_sent(_board: int, _seq: int, t_ns: int) -> None:
-        sent.append((int(last[0] * 1e6) * 1000, t_ns, round(last[1] * 1e6)))
+        total = sum(e.overflows for e in endpoints)
+        sent.append((int(last[0] * 1e6) * 1000, t_ns, round(last[1] * 1e6),
+                     int(total > overflows[0])))
+        overflows[0] = total
 
-    stats = run_boards(lambda: PtyEndpoint(port), [(board, pattern)], rate, stop,
-                       on_sent=on_sent)
-    queue.put((index, np.array(sent, dtype=np.int64).reshape(-1, 3), stats.late))
+    def open_endpoint() -> PtyEndpoint:
+        endpoints.append(PtyEndpoint(port))
+        return endpoints[-1]
+
+    stats = run_boards(open_endpoint, [(board, pattern)], rate, stop, on_sent=on_sent)
+    queue.put((index, np.array(sent, dtype=np.int64).reshape(-1, 4), stats.late))
 
 
 # -- the controller process ---------------------------------------------------------------------
@@ -239,13 +251,33 @@ class Inputs:
 
 
 # -- analysis -----------------------------------------------------------------------------------
-def expected_forces(pressed_un: np.ndarray, window: int = FILTER_WINDOW) -> np.ndarray:
+def expected_forces(pressed_un: np.ndarray, window: int = FILTER_WINDOW,
+                    cut: np.ndarray | None = None, board_ns: np.ndarray | None = None,
+                    silence_ns: float = SILENCE_NS) -> np.ndarray:
     """The resultant [µN] the driver's moving average makes of each sent frame's press force:
-    the mean of the last ``window`` frames sent (fewer at the start)."""
-    sums = np.cumsum(np.concatenate([[0.0], pressed_un.astype(np.float64)]))
-    ends = np.arange(1, len(pressed_un) + 1)
-    starts = np.maximum(ends - window, 0)
-    return np.asarray((sums[ends] - sums[starts]) / (ends - starts))
+    the mean of the last ``window`` frames that reached it (fewer at the start). A frame ``cut``
+    off at the full pty never reached it (its own entry is then meaningless); a gap in board
+    time longer than the driver's silence timeout empties its window (``reset_filter``)."""
+    n = len(pressed_un)
+    ok = np.ones(n, dtype=bool) if cut is None else ~cut.astype(bool)
+    values = np.where(ok, pressed_un.astype(np.float64), 0.0)
+    segment = np.zeros(n, dtype=np.int64)
+    if board_ns is not None and n > 1:
+        segment[1:] = np.cumsum(np.diff(board_ns) > silence_ns)
+    sums = np.cumsum(np.concatenate([[0.0], values]))
+    counts = np.cumsum(np.concatenate([[0], ok.astype(np.int64)]))
+    # Index (into sums/counts) where each frame's window starts: `window` good frames back,
+    # but not before its segment's first frame.
+    good_index = np.flatnonzero(ok)
+    rank = counts[1:]  # good frames up to and including each frame
+    back = np.maximum(rank - window, 0)
+    start = np.where(back > 0, good_index[np.maximum(back - 1, 0)] + 1, 0) if good_index.size \
+        else np.zeros(n, dtype=np.int64)
+    first = np.searchsorted(segment, segment, side="left")
+    start = np.maximum(start, first)
+    ends = np.arange(1, n + 1)
+    taken = np.maximum(counts[ends] - counts[start], 1)
+    return np.asarray((sums[ends] - sums[start]) / taken)
 
 
 def match_frames(stamps: np.ndarray, forces_un: np.ndarray, sent: np.ndarray,
@@ -258,7 +290,7 @@ def match_frames(stamps: np.ndarray, forces_un: np.ndarray, sent: np.ndarray,
     """
     board_ns = sent[:, 0]
     offset = int(np.min(sent[:, 1] - board_ns))  # host clock − board clock, to a few ms
-    expected = expected_forces(sent[:, 2])
+    expected = expected_forces(sent[:, 2], cut=sent[:, 3], board_ns=board_ns)
     centre = np.searchsorted(board_ns, stamps - offset)
     span = MODULUS // 4
     candidates = np.clip(centre[:, None] + np.arange(-span, span + 1), 0, len(sent) - 1)
@@ -302,6 +334,7 @@ def analyse_link(i: int, sent: np.ndarray, records: Any, window: tuple[int, int]
     counts = {
         "sent": int(in_window.sum()),
         "arrived": int((arrived & in_window).sum()),
+        "cut": int((in_window & ~arrived & (sent[:, 3] > 0)).sum()),
         "used": int(keep.sum()),
         "unmatched": int(((idx < 0) & in_arrivals).sum()),
     }
@@ -333,8 +366,8 @@ def report(args: argparse.Namespace, sent: dict[int, tuple[np.ndarray, int]], re
         dropped = counts["sent"] - counts["arrived"]
         print(f"  {SKIN_LINKS[i]}: frames sent {counts['sent']} (board late skips, whole run: "
               f"{sent[i][1]}), dropped {dropped} ({100 * dropped / max(counts['sent'], 1):.2f} "
-              f"%), used by a command {counts['used']}, contact states matching no frame "
-              f"{counts['unmatched']}")
+              f"%; of which cut off at the full pty: {counts['cut']}), used by a command "
+              f"{counts['used']}, contact states matching no frame {counts['unmatched']}")
     state_ns, command_ns = np.concatenate(all_state), np.concatenate(all_command)
     commands = records["commands"]
     n_cmd = int(((commands[:, 0] >= window[0]) & (commands[:, 0] < window[1])).sum())
