@@ -211,11 +211,14 @@ def _start_nodes(tmp: Path, layouts: list[Path], args: argparse.Namespace,
 
 
 class Inputs:
-    """Publishes the controller's other inputs (joint states, odometry) from this process."""
+    """Publishes the controller's other inputs (joint states, odometry) from this process, and
+    records every ``/diagnostics`` status of the drivers and the estimator (stage counts)."""
 
     def __init__(self, rate: float) -> None:
         import rclpy
+        from diagnostic_msgs.msg import DiagnosticArray
         from nav_msgs.msg import Odometry
+        from rclpy.executors import SingleThreadedExecutor
         from sensor_msgs.msg import JointState
 
         from wholebody_controller.kinematics import JOINT_NAMES
@@ -224,12 +227,24 @@ class Inputs:
         self.node = rclpy.create_node("bench_chain_inputs")
         self._joints = self.node.create_publisher(JointState, "/joint_states", 10)
         self._odom = self.node.create_publisher(Odometry, "/odom", 10)
+        self.diagnostics: list[tuple[int, str, dict[str, str]]] = []
+        """(stamp [ns], status name, values) of every skin_driver / contact_estimation status."""
+        self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 50)
+        self._executor = SingleThreadedExecutor()
+        self._executor.add_node(self.node)
         q_arms = [0.3, -1.2, 1.5, -1.0, -1.57, 0.0, -0.3, -1.9, -1.5, -1.0, 1.57, 0.0]
         self._joint_msg = JointState(name=list(JOINT_NAMES[3:]), position=q_arms)
         self._odom_msg = Odometry()
         self._odom_msg.pose.pose.orientation.w = 1.0
         self.period = 1.0 / rate
         self._next = time.monotonic()
+
+    def _on_diagnostics(self, msg: Any) -> None:
+        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        for status in msg.status:
+            if status.name.startswith(("skin_driver: ", "contact_estimation: ")):
+                self.diagnostics.append(
+                    (stamp, status.name, {kv.key: kv.value for kv in status.values}))
 
     def run_until(self, done: Any, timeout: float) -> bool:
         """Publish at the rate until ``done()`` or ``timeout`` [s]; return ``done()``."""
@@ -240,14 +255,27 @@ class Inputs:
             self._joints.publish(self._joint_msg)
             self._odom.publish(self._odom_msg)
             self._next = max(self._next + self.period, time.monotonic() - self.period)
-            time.sleep(max(0.0, self._next - time.monotonic()))
+            while (left := self._next - time.monotonic()) > 0:
+                self._executor.spin_once(timeout_sec=left)
         return bool(done())
 
     def close(self) -> None:
         import rclpy
 
+        self._executor.shutdown()
         self.node.destroy_node()
         rclpy.try_shutdown()
+
+
+def stage_rate(diagnostics: list[tuple[int, str, dict[str, str]]], name: str, key: str,
+               window: tuple[int, int]) -> float:
+    """Rate [1/s] at which the cumulative counter ``key`` of status ``name`` grew between its
+    first and last report inside ``window`` (stamps [ns]); NaN without two reports."""
+    points = [(t, float(v[key])) for t, n, v in diagnostics
+              if n == name and key in v and window[0] <= t <= window[1]]
+    if len(points) < 2 or points[-1][0] <= points[0][0]:
+        return float("nan")
+    return (points[-1][1] - points[0][1]) / ((points[-1][0] - points[0][0]) / 1e9)
 
 
 # -- analysis -----------------------------------------------------------------------------------
@@ -341,8 +369,33 @@ def analyse_link(i: int, sent: np.ndarray, records: Any, window: tuple[int, int]
     return counts, to_state, to_command
 
 
+def print_stages(i: int, sent: np.ndarray, records: Any, window: tuple[int, int],
+                 diagnostics: list[tuple[int, str, dict[str, str]]]) -> None:
+    """Where link i's frames were lost, as rates [1/s] over the window: sent by the board, cut
+    off at the full pty, parsed intact by the driver (its /diagnostics ``frames``), taken by the
+    estimator (``frames_received``), contact states arriving in the controller."""
+    seconds = (window[1] - window[0]) / 1e9
+    write_end = sent[:, 1]
+    inside = (write_end >= window[0]) & (write_end < window[1])
+    arrivals = records["arrivals"]
+    arrived = arrivals[(arrivals[:, 0] == i) & (arrivals[:, 2] >= window[0])
+                       & (arrivals[:, 2] < window[1])]
+    patch = SKIN_PATCHES[i]
+    rates = {
+        "sent": inside.sum() / seconds,
+        "cut at the pty": (inside & (sent[:, 3] > 0)).sum() / seconds,
+        "driver parsed": stage_rate(diagnostics, f"skin_driver: {patch} (board 0)", "frames",
+                                    window),
+        "estimator took": stage_rate(diagnostics, f"contact_estimation: {patch}",
+                                     "frames_received", window),
+        "controller got": len(arrived) / seconds,
+    }
+    print("    stages, frames/s: " + ", ".join(f"{k} {v:.1f}" for k, v in rates.items()))
+
+
 def report(args: argparse.Namespace, sent: dict[int, tuple[np.ndarray, int]], records: Any,
-           window: tuple[int, int], cpu: dict[str, float], busy_cores: float) -> None:
+           window: tuple[int, int], cpu: dict[str, float], busy_cores: float,
+           diagnostics: list[tuple[int, str, dict[str, str]]] | None = None) -> None:
     """Print the results (see the module docstring)."""
     period_ns = 1e9 / args.rate
     markers = "off" if not args.markers else (
@@ -368,6 +421,8 @@ def report(args: argparse.Namespace, sent: dict[int, tuple[np.ndarray, int]], re
               f"{sent[i][1]}), dropped {dropped} ({100 * dropped / max(counts['sent'], 1):.2f} "
               f"%; of which cut off at the full pty: {counts['cut']}), used by a command "
               f"{counts['used']}, contact states matching no frame {counts['unmatched']}")
+        if diagnostics is not None:
+            print_stages(i, sent[i][0], records, window, diagnostics)
     state_ns, command_ns = np.concatenate(all_state), np.concatenate(all_command)
     commands = records["commands"]
     n_cmd = int(((commands[:, 0] >= window[0]) & (commands[:, 0] < window[1])).sum())
@@ -439,7 +494,8 @@ def measure(args: argparse.Namespace, tmp: Path) -> None:
     if records["arrivals"].size == 0:
         raise RuntimeError("the controller probe recorded no contact state (is "
                            f"WholeBodyControllerNode still calling {PROBED_METHODS[0]}?)")
-    report(args, sent, records, (t0, t1), cpu, machine1.busy_cores_since(machine0))
+    report(args, sent, records, (t0, t1), cpu, machine1.busy_cores_since(machine0),
+           inputs.diagnostics)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
