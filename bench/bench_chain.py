@@ -9,7 +9,11 @@ Reported over the measured window (after start-up and ``--warmup``):
 
 * frames sent by each board and contact states of its link that reached the controller; a
   frame that never arrived as a contact state is **dropped** (by the driver, the estimator or
-  DDS);
+  DDS). A frame whose tail the board could not write because the pty stayed full for its write
+  timeout (the driver did not read for ≈ 18 ms: 16 KB of pty buffer, 10 ms timeout) is counted
+  as **cut off at the pty**; the **stages** line gives, per link, the rates at which frames were
+  sent, cut off, parsed intact by the driver and taken by the estimator (both from their
+  ``/diagnostics`` counters) and arrived in the controller, so a drop can be placed;
 * latency from a frame's last byte (the board's ``write()`` of it returned, wall clock) to
   (a) the contact state's arrival in the controller process and (b) the end of the first control
   cycle whose command used it: **frame end → command**. A frame superseded by the next one
@@ -25,8 +29,10 @@ up to the ADC noise (≈ mN ≪ δ). The bench computes this expected value for 
 sent and matches each contact state to the frame, among those whose board time lies within
 ±M/4 frames of the state's stamp (the stamp is the board time mapped to the host clock; it
 travels unchanged from driver to estimator to controller), whose expected force is closest,
-within δ/2. The controller process runs the real node class and entry point (``run_nodes``)
-with two probes: on every contact message it records (link, stamp, arrival time, |force|);
+within δ/2. The expected force skips frames cut off at the pty (they never reach the moving
+average) and restarts after a board silence longer than the driver's ``silence_timeout``.
+The controller process runs the real node class and entry point (``run_nodes``) with two
+probes: on every contact message it records (link, stamp, arrival time, |force|);
 after every control cycle that published a command, (end time, stamp of each link's contact
 state used). Commands map to frames through those stamps. Nothing in the node's code changes.
 
@@ -237,7 +243,7 @@ class Inputs:
         self._odom_msg = Odometry()
         self._odom_msg.pose.pose.orientation.w = 1.0
         self.period = 1.0 / rate
-        self._next = time.monotonic()
+        self._next = self._next_drain = time.monotonic()
 
     def _on_diagnostics(self, msg: Any) -> None:
         stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
@@ -255,8 +261,11 @@ class Inputs:
             self._joints.publish(self._joint_msg)
             self._odom.publish(self._odom_msg)
             self._next = max(self._next + self.period, time.monotonic() - self.period)
-            while (left := self._next - time.monotonic()) > 0:
-                self._executor.spin_once(timeout_sec=left)
+            if time.monotonic() >= self._next_drain:  # diagnostics: stamped, ~5 a second
+                self._next_drain = time.monotonic() + 0.25
+                for _ in range(20):
+                    self._executor.spin_once(timeout_sec=0.0)
+            time.sleep(max(0.0, self._next - time.monotonic()))
         return bool(done())
 
     def close(self) -> None:
