@@ -45,7 +45,7 @@ from skin_driver.calibration import KERNELS, CalibrationConfig, FloatArray, Patc
 from skin_driver.diagnostics import BoardSnapshot, PortSnapshot, board_status, port_status
 from skin_driver.layout import LayoutError, SkinLayout, load_layout
 from skin_driver.protocol import MAX_TAXELS, BoardSequence, Frame, FrameParser
-from skin_driver.transport import SerialReader
+from skin_driver.transport import PortPoller, SerialReader
 
 FrameListener = Callable[[str, TaxelArray], None]
 """Receives (patch name, calibrated taxel array) for every frame (see add_frame_listener)."""
@@ -216,8 +216,12 @@ class SkinDriverNode(Node):
         context: Context | None = None,
         node_name: str = "skin_driver",
         parameter_overrides: list[Parameter] | None = None,
+        poller: PortPoller | None = None,
     ) -> None:
+        """``poller``: read the port on this shared thread (several drivers in one process,
+        ``skin_contact_node``) instead of the node's own serial thread."""
         super().__init__(node_name, context=context, parameter_overrides=parameter_overrides)
+        self._poller = poller
         try:
             self._values = declare_parameters(self, PARAMS, on_change=self._on_change)
             v = self._values
@@ -296,6 +300,7 @@ class SkinDriverNode(Node):
             clock=lambda: self.get_clock().now().nanoseconds,
             on_connect=self._on_connect,
             on_error=self._on_port_error,
+            poller=self._poller,
         )
 
     # ------------------------------------------------------------------ serial thread side

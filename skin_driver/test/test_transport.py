@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import threading
 import time
+from typing import Any
 
 from skin_driver.sim_board import PtyEndpoint
 from skin_driver.transport import SerialReader
@@ -66,3 +67,55 @@ def test_a_closed_pty_is_reported_lost_and_reopened_when_it_returns(tmp_path: ob
     finally:
         reader.stop()
         endpoint.close()
+
+
+def test_a_shared_poller_reads_every_port_on_one_thread_and_survives_a_lost_one(
+    tmp_path: object,
+) -> None:
+    """Three readers with one PortPoller: every byte of every port arrives, all on the poller's
+    thread; one port vanishing is reported and reopened without disturbing the others; when
+    the readers stop, the poller's thread ends."""
+    from skin_driver.transport import PortPoller
+
+    poller = PortPoller("test-poller")
+    links = [f"{tmp_path}/port{i}" for i in range(3)]
+    endpoints = [PtyEndpoint(link) for link in links]
+    received: list[list[bytes]] = [[], [], []]
+    threads: set[str] = set()
+
+    def on_data(i: int) -> Any:
+        def handle(chunk: bytes, _t: int) -> None:
+            threads.add(threading.current_thread().name)
+            received[i].append(chunk)
+        return handle
+
+    readers = [SerialReader(link, on_data(i), poller=poller, backoff_initial=0.05,
+                            backoff_max=0.1) for i, link in enumerate(links)]
+    for reader in readers:
+        reader.start()
+    try:
+        assert _wait(lambda: all(r.stats.connects == 1 for r in readers) and poller.ports == 3)
+        frames = [[os.urandom(4020) for _ in range(20)] for _ in range(3)]
+        for k in range(20):
+            for endpoint, port_frames in zip(endpoints, frames, strict=True):
+                endpoint.write(port_frames[k])
+            time.sleep(0.005)
+        assert _wait(lambda: all(r.stats.bytes_read == 20 * 4020 for r in readers))
+        for i in range(3):
+            assert b"".join(received[i]) == b"".join(frames[i])
+        assert threads == {"test-poller"}
+        endpoints[1].close()
+        assert _wait(lambda: readers[1].stats.disconnects == 1), readers[1].stats
+        assert "lost" in readers[1].stats.last_error
+        endpoints[1] = PtyEndpoint(links[1])
+        assert _wait(lambda: readers[1].stats.connects == 2 and poller.ports == 3)
+        endpoints[1].write(b"after")
+        endpoints[0].write(b"still")
+        assert _wait(lambda: received[1][-1:] == [b"after"] and received[0][-1:] == [b"still"])
+    finally:
+        for reader in readers:
+            reader.stop()
+        for endpoint in endpoints:
+            endpoint.close()
+    assert poller.ports == 0
+    assert _wait(lambda: "test-poller" not in {t.name for t in threading.enumerate()})
