@@ -43,8 +43,10 @@ def test_each_write_arrives_whole_in_about_one_read() -> None:
         assert _wait(lambda: reader.stats.bytes_read == 40 * 4020), reader.stats
         with lock:
             assert b"".join(chunks) == b"".join(frames)
-            assert len(chunks) <= 1.5 * len(frames), f"{len(chunks)} reads for 40 writes"
-            assert min(len(c) for c in chunks) > 1
+            # pyserial's read took a 1-byte read, then the rest (≥ 2.5 reads per frame); here
+            # ≈ 1.1 on a quiet machine, ≤ 2 when the reader wakes mid-transfer under load.
+            assert min(len(c) for c in chunks) > 1, "a one-byte read: pyserial's pattern"
+            assert len(chunks) <= 2 * len(frames), f"{len(chunks)} reads for 40 writes"
     finally:
         reader.stop()
         endpoint.close()
