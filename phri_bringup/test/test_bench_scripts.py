@@ -92,3 +92,26 @@ def test_bench_chain_expected_forces_follow_the_drivers_window() -> None:
     board_ns[20:] += 200_000_000
     restarted = module.expected_forces(pressed, cut=cut, board_ns=board_ns)
     assert restarted[20] == 2100 and restarted[22] == 2200 and restarted[19] == skipped[19]
+
+
+def test_bench_chain_matches_every_state_to_its_own_frame_across_the_code_wrap() -> None:
+    """Contact states stamped within a few ms of their frame and carrying its expected force
+    are matched to exactly that frame, also where the force code wraps (MODULUS frames) and the
+    moving average revisits values nearby frames also take."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("bench_chain", ROOT / "bench" / "bench_chain.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    period = 2_000_000
+    n = 3 * module.MODULUS
+    board = np.arange(n, dtype=np.int64) * period
+    pressed = np.round((module.F0 + module.DELTA * (np.arange(n) % module.MODULUS)) * 1e6)
+    offset = 5_000_000_000
+    sent = np.column_stack([board, board + offset + 300_000, pressed.astype(np.int64),
+                            np.zeros(n, dtype=np.int64)])
+    expected = module.expected_forces(sent[:, 2])
+    jitter = np.random.default_rng(0).integers(-3_000_000, 3_000_000, n)  # stamp error [ns]
+    found = module.match_frames(board + offset + 300_000 + jitter, expected, sent, period)
+    np.testing.assert_array_equal(found, np.arange(n))
