@@ -9,7 +9,11 @@ Reported over the measured window (after start-up and ``--warmup``):
 
 * frames sent by each board and contact states of its link that reached the controller; a
   frame that never arrived as a contact state is **dropped** (by the driver, the estimator or
-  DDS);
+  DDS). A frame whose tail the board could not write because the pty stayed full for its write
+  timeout (the driver did not read for ≈ 18 ms: 16 KB of pty buffer, 10 ms timeout) is counted
+  as **cut off at the pty**; the **stages** line gives, per link, the rates at which frames were
+  sent, cut off, parsed intact by the driver and taken by the estimator (both from their
+  ``/diagnostics`` counters) and arrived in the controller, so a drop can be placed;
 * latency from a frame's last byte (the board's ``write()`` of it returned, wall clock) to
   (a) the contact state's arrival in the controller process and (b) the end of the first control
   cycle whose command used it: **frame end → command**. A frame superseded by the next one
@@ -25,8 +29,10 @@ up to the ADC noise (≈ mN ≪ δ). The bench computes this expected value for 
 sent and matches each contact state to the frame, among those whose board time lies within
 ±M/4 frames of the state's stamp (the stamp is the board time mapped to the host clock; it
 travels unchanged from driver to estimator to controller), whose expected force is closest,
-within δ/2. The controller process runs the real node class and entry point (``run_nodes``)
-with two probes: on every contact message it records (link, stamp, arrival time, |force|);
+within δ/2. The expected force skips frames cut off at the pty (they never reach the moving
+average) and restarts after a board silence longer than the driver's ``silence_timeout``.
+The controller process runs the real node class and entry point (``run_nodes``) with two
+probes: on every contact message it records (link, stamp, arrival time, |force|);
 after every control cycle that published a command, (end time, stamp of each link's contact
 state used). Commands map to frames through those stamps. Nothing in the node's code changes.
 
@@ -66,21 +72,27 @@ PRESS_RADIUS = 0.012
 """Press radius [m]: a few taxels, each well above the driver's tare_max_shift (0.5 N)."""
 FILTER_WINDOW = 10
 """The driver's moving-average window (its default, the paper's)."""
+SILENCE_NS = 0.1e9
+"""The driver's silence_timeout [ns] (its default): a board quiet this long restarts its
+moving average."""
 
 
 # -- simulated boards ---------------------------------------------------------------------------
 def _board_process(index: int, port: str, layout_file: str, rate: float, stop: Any,
                    queue: Any) -> None:
     """One board on its own pty, pressed with the coded force; report per frame sent:
-    (board time [ns], write end [ns, wall clock], press force [µN])."""
+    (board time [ns], write end [ns, wall clock], press force [µN], cut off: 1 when the pty
+    was full for the write timeout and the frame's tail was dropped, as a UART would)."""
     from skin_driver.layout import load_layout
     from skin_driver.sim_board import PtyEndpoint, SimBoard, press_pattern, run_boards
 
     layout = load_layout(layout_file)
     board = SimBoard(0, layout, noise_counts=2.0, seed=index)
     unit = press_pattern(layout, force=1.0, radius=PRESS_RADIUS, period=0.0)(0.0)
-    sent: list[tuple[int, int, int]] = []
+    sent: list[tuple[int, int, int, int]] = []
     last = [0.0, 0.0]
+    endpoints: list[PtyEndpoint] = []
+    overflows = [0]
 
     def pattern(t: float) -> Any:
         force = F0 + DELTA * (round(t * rate) % MODULUS)
@@ -88,11 +100,17 @@ def _board_process(index: int, port: str, layout_file: str, rate: float, stop: A
         return unit * force
 
     def on_sent(_board: int, _seq: int, t_ns: int) -> None:
-        sent.append((int(last[0] * 1e6) * 1000, t_ns, round(last[1] * 1e6)))
+        total = sum(e.overflows for e in endpoints)
+        sent.append((int(last[0] * 1e6) * 1000, t_ns, round(last[1] * 1e6),
+                     int(total > overflows[0])))
+        overflows[0] = total
 
-    stats = run_boards(lambda: PtyEndpoint(port), [(board, pattern)], rate, stop,
-                       on_sent=on_sent)
-    queue.put((index, np.array(sent, dtype=np.int64).reshape(-1, 3), stats.late))
+    def open_endpoint() -> PtyEndpoint:
+        endpoints.append(PtyEndpoint(port))
+        return endpoints[-1]
+
+    stats = run_boards(open_endpoint, [(board, pattern)], rate, stop, on_sent=on_sent)
+    queue.put((index, np.array(sent, dtype=np.int64).reshape(-1, 4), stats.late))
 
 
 # -- the controller process ---------------------------------------------------------------------
@@ -199,11 +217,14 @@ def _start_nodes(tmp: Path, layouts: list[Path], args: argparse.Namespace,
 
 
 class Inputs:
-    """Publishes the controller's other inputs (joint states, odometry) from this process."""
+    """Publishes the controller's other inputs (joint states, odometry) from this process, and
+    records every ``/diagnostics`` status of the drivers and the estimator (stage counts)."""
 
     def __init__(self, rate: float) -> None:
         import rclpy
+        from diagnostic_msgs.msg import DiagnosticArray
         from nav_msgs.msg import Odometry
+        from rclpy.executors import SingleThreadedExecutor
         from sensor_msgs.msg import JointState
 
         from wholebody_controller.kinematics import JOINT_NAMES
@@ -212,12 +233,24 @@ class Inputs:
         self.node = rclpy.create_node("bench_chain_inputs")
         self._joints = self.node.create_publisher(JointState, "/joint_states", 10)
         self._odom = self.node.create_publisher(Odometry, "/odom", 10)
+        self.diagnostics: list[tuple[int, str, dict[str, str]]] = []
+        """(stamp [ns], status name, values) of every skin_driver / contact_estimation status."""
+        self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 50)
+        self._executor = SingleThreadedExecutor()
+        self._executor.add_node(self.node)
         q_arms = [0.3, -1.2, 1.5, -1.0, -1.57, 0.0, -0.3, -1.9, -1.5, -1.0, 1.57, 0.0]
         self._joint_msg = JointState(name=list(JOINT_NAMES[3:]), position=q_arms)
         self._odom_msg = Odometry()
         self._odom_msg.pose.pose.orientation.w = 1.0
         self.period = 1.0 / rate
-        self._next = time.monotonic()
+        self._next = self._next_drain = time.monotonic()
+
+    def _on_diagnostics(self, msg: Any) -> None:
+        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        for status in msg.status:
+            if status.name.startswith(("skin_driver: ", "contact_estimation: ")):
+                self.diagnostics.append(
+                    (stamp, status.name, {kv.key: kv.value for kv in status.values}))
 
     def run_until(self, done: Any, timeout: float) -> bool:
         """Publish at the rate until ``done()`` or ``timeout`` [s]; return ``done()``."""
@@ -228,24 +261,60 @@ class Inputs:
             self._joints.publish(self._joint_msg)
             self._odom.publish(self._odom_msg)
             self._next = max(self._next + self.period, time.monotonic() - self.period)
+            if time.monotonic() >= self._next_drain:  # diagnostics: stamped, ~5 a second
+                self._next_drain = time.monotonic() + 0.25
+                for _ in range(20):
+                    self._executor.spin_once(timeout_sec=0.0)
             time.sleep(max(0.0, self._next - time.monotonic()))
         return bool(done())
 
     def close(self) -> None:
         import rclpy
 
+        self._executor.shutdown()
         self.node.destroy_node()
         rclpy.try_shutdown()
 
 
+def stage_rate(diagnostics: list[tuple[int, str, dict[str, str]]], name: str, key: str,
+               window: tuple[int, int]) -> float:
+    """Rate [1/s] at which the cumulative counter ``key`` of status ``name`` grew between its
+    first and last report inside ``window`` (stamps [ns]); NaN without two reports."""
+    points = [(t, float(v[key])) for t, n, v in diagnostics
+              if n == name and key in v and window[0] <= t <= window[1]]
+    if len(points) < 2 or points[-1][0] <= points[0][0]:
+        return float("nan")
+    return (points[-1][1] - points[0][1]) / ((points[-1][0] - points[0][0]) / 1e9)
+
+
 # -- analysis -----------------------------------------------------------------------------------
-def expected_forces(pressed_un: np.ndarray, window: int = FILTER_WINDOW) -> np.ndarray:
+def expected_forces(pressed_un: np.ndarray, window: int = FILTER_WINDOW,
+                    cut: np.ndarray | None = None, board_ns: np.ndarray | None = None,
+                    silence_ns: float = SILENCE_NS) -> np.ndarray:
     """The resultant [µN] the driver's moving average makes of each sent frame's press force:
-    the mean of the last ``window`` frames sent (fewer at the start)."""
-    sums = np.cumsum(np.concatenate([[0.0], pressed_un.astype(np.float64)]))
-    ends = np.arange(1, len(pressed_un) + 1)
-    starts = np.maximum(ends - window, 0)
-    return np.asarray((sums[ends] - sums[starts]) / (ends - starts))
+    the mean of the last ``window`` frames that reached it (fewer at the start). A frame ``cut``
+    off at the full pty never reached it (its own entry is then meaningless); a gap in board
+    time longer than the driver's silence timeout empties its window (``reset_filter``)."""
+    n = len(pressed_un)
+    ok = np.ones(n, dtype=bool) if cut is None else ~cut.astype(bool)
+    values = np.where(ok, pressed_un.astype(np.float64), 0.0)
+    segment = np.zeros(n, dtype=np.int64)
+    if board_ns is not None and n > 1:
+        segment[1:] = np.cumsum(np.diff(board_ns) > silence_ns)
+    sums = np.cumsum(np.concatenate([[0.0], values]))
+    counts = np.cumsum(np.concatenate([[0], ok.astype(np.int64)]))
+    # Index (into sums/counts) where each frame's window starts: `window` good frames back,
+    # but not before its segment's first frame.
+    good_index = np.flatnonzero(ok)
+    rank = counts[1:]  # good frames up to and including each frame
+    back = np.maximum(rank - window, 0)
+    start = np.where(back > 0, good_index[np.maximum(back - 1, 0)] + 1, 0) if good_index.size \
+        else np.zeros(n, dtype=np.int64)
+    first = np.searchsorted(segment, segment, side="left")
+    start = np.maximum(start, first)
+    ends = np.arange(1, n + 1)
+    taken = np.maximum(counts[ends] - counts[start], 1)
+    return np.asarray((sums[ends] - sums[start]) / taken)
 
 
 def match_frames(stamps: np.ndarray, forces_un: np.ndarray, sent: np.ndarray,
@@ -253,21 +322,24 @@ def match_frames(stamps: np.ndarray, forces_un: np.ndarray, sent: np.ndarray,
     """Index of the sent frame each contact state came from (−1: none matches; module doc).
 
     ``sent`` rows: board time [ns], write end [ns], press force [µN]. Candidates are the
-    frames within ±MODULUS/4 frames of the stamp's board time; the match is the one whose
-    expected filtered force is closest, if within DELTA/2.
+    frames within ±MODULUS/4 frames of the stamp's board time whose expected filtered force
+    lies within DELTA/2 of the state's; the match is the one nearest in board time (after the
+    code wraps, MODULUS frames, the moving average passes through values it also takes a few
+    tens of frames away: the closest force alone then picked the wrong frame ≈ 2 % of the time).
     """
     board_ns = sent[:, 0]
     offset = int(np.min(sent[:, 1] - board_ns))  # host clock − board clock, to a few ms
-    expected = expected_forces(sent[:, 2])
+    expected = expected_forces(sent[:, 2], cut=sent[:, 3], board_ns=board_ns)
     centre = np.searchsorted(board_ns, stamps - offset)
     span = MODULUS // 4
     candidates = np.clip(centre[:, None] + np.arange(-span, span + 1), 0, len(sent) - 1)
-    near = np.abs(board_ns[candidates] - (stamps - offset)[:, None]) <= span * period_ns
-    error = np.where(near, np.abs(expected[candidates] - forces_un[:, None]), np.inf)
-    best = np.argmin(error, axis=1)
+    distance = np.abs(board_ns[candidates] - (stamps - offset)[:, None]).astype(np.float64)
+    fits = (distance <= span * period_ns) & \
+        (np.abs(expected[candidates] - forces_un[:, None]) < DELTA * 1e6 / 2)
+    score = np.where(fits, distance, np.inf)
+    best = np.argmin(score, axis=1)
     rows = np.arange(len(stamps))
-    ok = error[rows, best] < DELTA * 1e6 / 2
-    return np.where(ok, candidates[rows, best], -1)
+    return np.where(np.isfinite(score[rows, best]), candidates[rows, best], -1)
 
 
 def _ms(x: np.ndarray) -> str:
@@ -302,14 +374,40 @@ def analyse_link(i: int, sent: np.ndarray, records: Any, window: tuple[int, int]
     counts = {
         "sent": int(in_window.sum()),
         "arrived": int((arrived & in_window).sum()),
+        "cut": int((in_window & ~arrived & (sent[:, 3] > 0)).sum()),
         "used": int(keep.sum()),
         "unmatched": int(((idx < 0) & in_arrivals).sum()),
     }
     return counts, to_state, to_command
 
 
+def print_stages(i: int, sent: np.ndarray, records: Any, window: tuple[int, int],
+                 diagnostics: list[tuple[int, str, dict[str, str]]]) -> None:
+    """Where link i's frames were lost, as rates [1/s] over the window: sent by the board, cut
+    off at the full pty, parsed intact by the driver (its /diagnostics ``frames``), taken by the
+    estimator (``frames_received``), contact states arriving in the controller."""
+    seconds = (window[1] - window[0]) / 1e9
+    write_end = sent[:, 1]
+    inside = (write_end >= window[0]) & (write_end < window[1])
+    arrivals = records["arrivals"]
+    arrived = arrivals[(arrivals[:, 0] == i) & (arrivals[:, 2] >= window[0])
+                       & (arrivals[:, 2] < window[1])]
+    patch = SKIN_PATCHES[i]
+    rates = {
+        "sent": inside.sum() / seconds,
+        "cut at the pty": (inside & (sent[:, 3] > 0)).sum() / seconds,
+        "driver parsed": stage_rate(diagnostics, f"skin_driver: {patch} (board 0)", "frames",
+                                    window),
+        "estimator took": stage_rate(diagnostics, f"contact_estimation: {patch}",
+                                     "frames_received", window),
+        "controller got": len(arrived) / seconds,
+    }
+    print("    stages, frames/s: " + ", ".join(f"{k} {v:.1f}" for k, v in rates.items()))
+
+
 def report(args: argparse.Namespace, sent: dict[int, tuple[np.ndarray, int]], records: Any,
-           window: tuple[int, int], cpu: dict[str, float], busy_cores: float) -> None:
+           window: tuple[int, int], cpu: dict[str, float], busy_cores: float,
+           diagnostics: list[tuple[int, str, dict[str, str]]] | None = None) -> None:
     """Print the results (see the module docstring)."""
     period_ns = 1e9 / args.rate
     markers = "off" if not args.markers else (
@@ -333,8 +431,10 @@ def report(args: argparse.Namespace, sent: dict[int, tuple[np.ndarray, int]], re
         dropped = counts["sent"] - counts["arrived"]
         print(f"  {SKIN_LINKS[i]}: frames sent {counts['sent']} (board late skips, whole run: "
               f"{sent[i][1]}), dropped {dropped} ({100 * dropped / max(counts['sent'], 1):.2f} "
-              f"%), used by a command {counts['used']}, contact states matching no frame "
-              f"{counts['unmatched']}")
+              f"%; of which cut off at the full pty: {counts['cut']}), used by a command "
+              f"{counts['used']}, contact states matching no frame {counts['unmatched']}")
+        if diagnostics is not None:
+            print_stages(i, sent[i][0], records, window, diagnostics)
     state_ns, command_ns = np.concatenate(all_state), np.concatenate(all_command)
     commands = records["commands"]
     n_cmd = int(((commands[:, 0] >= window[0]) & (commands[:, 0] < window[1])).sum())
@@ -406,7 +506,8 @@ def measure(args: argparse.Namespace, tmp: Path) -> None:
     if records["arrivals"].size == 0:
         raise RuntimeError("the controller probe recorded no contact state (is "
                            f"WholeBodyControllerNode still calling {PROBED_METHODS[0]}?)")
-    report(args, sent, records, (t0, t1), cpu, machine1.busy_cores_since(machine0))
+    report(args, sent, records, (t0, t1), cpu, machine1.busy_cores_since(machine0),
+           inputs.diagnostics)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -4,6 +4,7 @@ robot_state_publisher, and optionally rviz.
 
     ros2 launch phri_bringup real.launch.py [hardware_config:=DIR]
         [skin_left_port:=PORT] [skin_right_port:=PORT] [layout_dir:=DIR]
+        [skin_process:=composed|separate] [taxel_rate_hz:=50.0]
         [base_cmd_topic:=/base_driver/cmd_vel] [rviz:=true]
 
 The nodes come from ``phri_bringup.graph.real_graph`` (the one description of the graph).
@@ -12,6 +13,9 @@ its share directory, or from ``hardware_config:=DIR`` holding your edited copies
 ``config/real.yaml`` (docs/bringup.md). The skin ports and layouts come from ``skin_real.yaml``
 unless given here; ``layout_dir`` holds ``<patch>.yaml`` (``phri layouts DIR`` writes nominal
 ones). The base guard's ``base/cmd_vel`` is remapped to ``base_cmd_topic``.
+``skin_process``: ``composed`` (default) runs both skin drivers and the contact estimation in one
+``skin_contact_node`` process (frames handed over directly, each taxel topic published at
+``taxel_rate_hz``), ``separate`` one process per node.
 
 Nothing starts while a value is still marked PLACEHOLDER in those files, a layout file is
 missing or an executable is not installed: the error names the file and line to edit.
@@ -24,6 +28,9 @@ from launch_ros.actions import Node
 
 from phri_bringup.graph import (
     DEFAULT_BASE_COMMAND_TOPIC,
+    DEFAULT_SKIN_PROCESS,
+    DEFAULT_TAXEL_RATE_HZ,
+    SKIN_PROCESSES,
     launch_node_kwargs,
     real_graph,
     robot_description_urdf,
@@ -38,7 +45,8 @@ def _nodes(context):
     ports = {"skin_driver_left": arg("skin_left_port"),
              "skin_driver_right": arg("skin_right_port")}
     graph = real_graph(ports, arg("layout_dir"), arg("rviz").lower() in ("true", "1", "yes"),
-                       arg("hardware_config"), arg("base_cmd_topic"))
+                       arg("hardware_config"), arg("base_cmd_topic"), arg("skin_process"),
+                       float(arg("taxel_rate_hz")))
     urdf = robot_description_urdf()
     check = preflight_action("real.launch.py",
                              lambda: launch_problems(graph, ament_executable_exists, real=True))
@@ -60,6 +68,14 @@ def generate_launch_description():
         DeclareLaunchArgument("layout_dir", default_value="",
                               description="directory of <patch>.yaml skin layout files "
                                           "(default: skin_real.yaml's layout_files)"),
+        DeclareLaunchArgument("skin_process", default_value=DEFAULT_SKIN_PROCESS,
+                              choices=list(SKIN_PROCESSES),
+                              description="composed: skin drivers and contact estimation in one "
+                                          "process (direct hand-off); separate: one process "
+                                          "per node"),
+        DeclareLaunchArgument("taxel_rate_hz", default_value=str(DEFAULT_TAXEL_RATE_HZ),
+                              description="composed only: rate of each skin/<patch>/taxels "
+                                          "topic [Hz] (0 = every frame)"),
         DeclareLaunchArgument("base_cmd_topic", default_value=DEFAULT_BASE_COMMAND_TOPIC,
                               description="the base driver's twist input (base_guard output)"),
         DeclareLaunchArgument("rviz", default_value="false", description="start rviz2"),

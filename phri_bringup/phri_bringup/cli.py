@@ -116,6 +116,9 @@ def _parser() -> argparse.ArgumentParser:
     graph = sub.add_parser("graph", help="print the node graph the launch files start")
     graph.add_argument("which", choices=("sim", "real"), nargs="?", default="sim")
     graph.add_argument("--scenario", default="waltz")
+    graph.add_argument("--skin-process", choices=("composed", "separate"), default="composed",
+                       help="real: skin drivers and contact estimation in one process "
+                            "(real.launch.py's skin_process)")
 
     report = sub.add_parser("paper-report", help="run centring, sliding and whole_body; draw "
                             "Figs 6–8 panel by panel; write the paper-vs-phri page")
@@ -434,12 +437,19 @@ def cmd_params(args: argparse.Namespace) -> int:
 def cmd_graph(args: argparse.Namespace) -> int:
     from phri_bringup.graph import real_graph, sim_graph
 
-    nodes = sim_graph(args.scenario) if args.which == "sim" else real_graph()
-    for n in nodes:
-        ns = f"/{n.namespace}" if n.namespace else ""
-        files = ", ".join(f if "/" in f else f"config/{f}.yaml" for f in n.parameter_files) or "-"
-        print(f"{ns}/{n.name}: {n.package}/{n.executable}  params: {files} {n.parameters or ''}"
-              f"{'  [in-process in phri sim]' if n.in_process else ''}")
+    nodes = sim_graph(args.scenario) if args.which == "sim" else \
+        real_graph(skin_process=args.skin_process)
+    for spec in nodes:
+        indent = ""
+        if spec.nodes:
+            print(f"process {spec.package}/{spec.executable} {' '.join(spec.arguments)}:")
+            indent = "    "
+        for n in spec.nodes or (spec,):
+            ns = f"/{n.namespace}" if n.namespace else ""
+            files = ", ".join(f if "/" in f else f"config/{f}.yaml"
+                              for f in n.parameter_files) or "-"
+            print(f"{indent}{ns}/{n.name}: {n.package}/{n.executable}  params: {files} "
+                  f"{n.parameters or ''}{'  [in-process in phri sim]' if n.in_process else ''}")
     return 0
 
 

@@ -8,7 +8,9 @@ running in-process nodes against the parameter files).
 A :class:`NodeSpec` names a node the way ``launch_ros.actions.Node`` wants it (package,
 executable, name, namespace, parameter files, inline parameters, remappings); ``in_process``
 marks the nodes that the lock-step runner also creates in one process (the robot state publisher
-and rviz exist only on a ROS install).
+and rviz exist only on a ROS install). A spec with ``nodes`` is one process holding several
+nodes (the real robot's composed skin drivers + contact estimation, ``skin_contact_node``):
+:func:`ros_nodes` lists the nodes of a graph, the graph's own list its processes.
 
 It also lists the documented topics with their types (:data:`SIM_TOPICS`), which the recorder
 subscribes and the tests expect in a recording.
@@ -84,6 +86,11 @@ class NodeSpec:
         remappings: (from, to) topic pairs.
         in_process: the lock-step runner also creates this node in one process.
         description: one line for listings and the docs.
+        nodes: for a process that holds several nodes: one spec per node (its ``name``,
+            ``parameter_files`` and ``parameters``; ``package``/``executable`` name the node's
+            own class); the process spec's ``name`` is then only a label and its
+            ``parameter_files``/``parameters`` are unused.
+        arguments: command-line arguments before ``--ros-args``.
     """
 
     name: str
@@ -95,6 +102,8 @@ class NodeSpec:
     remappings: tuple[tuple[str, str], ...] = ()
     in_process: bool = False
     description: str = ""
+    nodes: tuple[NodeSpec, ...] = ()
+    arguments: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -218,33 +227,92 @@ def hardware_config(name: str, directory: str = "") -> str:
     return str(Path(directory).resolve() / name) if directory else f"phri_hardware/config/{name}"
 
 
-def real_graph(ports: dict[str, str] | None = None, layout_dir: str = "",
-               rviz: bool = False, hardware_dir: str = "",
-               base_cmd_topic: str = DEFAULT_BASE_COMMAND_TOPIC) -> list[NodeSpec]:
-    """Nodes on the real robot: skin drivers, estimation, controller, the phri_hardware arm
-    bridges (namespaces ``left``/``right``) and base guard, and the robot state publisher.
+SKIN_PROCESSES: tuple[str, ...] = ("composed", "separate")
+"""How the real robot runs its skin drivers and contact estimation: ``composed`` = one
+``skin_contact_node`` process (drivers hand frames to the estimator directly, taxel topics at
+``taxel_rate_hz``), ``separate`` = one process per driver and one for the estimator (every frame
+crosses DDS). ``bench/bench_chain.py`` measures both (README, Benchmarks)."""
+DEFAULT_SKIN_PROCESS = "composed"
+"""real.launch.py's ``skin_process`` default: the composed process dropped fewer frames with
+less CPU and lower latency in every ``bench_chain.py`` series (README, Benchmarks)."""
+DEFAULT_TAXEL_RATE_HZ = 50.0
+"""real.launch.py's ``taxel_rate_hz`` default [Hz]: each patch's taxel topic in the composed
+process (rviz, recording, diagnostics tools; the estimator gets every frame directly)."""
+SKIN_CONTACT = "skin_contact"
+"""Label of the composed process (``phri_bringup/skin_contact_node``); not a node name."""
 
-    Parameters come from phri_hardware's files (``hardware_dir`` replaces its share directory),
-    then ``config/real.yaml``; ``ports`` (driver node → port) and ``layout_dir`` (``<patch>.yaml``
-    files, made absolute) override the skin file's values when given; the base guard's output is
-    remapped to ``base_cmd_topic``."""
-    ports = ports or {}
-    skin_file = hardware_config(HARDWARE_CONFIG["skin_driver"], hardware_dir)
-    nodes = []
+
+def _skin_driver_specs(ports: dict[str, str], layout_dir: str, skin_file: str,
+                       extra: dict[str, Any]) -> list[NodeSpec]:
+    """One skin_driver node per real port: ``skin_file`` then ``config/real.yaml``, then the
+    port, the layouts of ``layout_dir`` (made absolute) and ``extra`` when given."""
+    specs = []
     for name, patches in REAL_SKIN_PORTS.items():
-        overrides: dict[str, Any] = {}
+        overrides: dict[str, Any] = dict(extra)
         if ports.get(name):
             overrides["port"] = ports[name]
         if layout_dir:
             root = Path(layout_dir).resolve()
             overrides["layout_files"] = [str(root / f"{p}.yaml") for p in patches]
-        nodes.append(NodeSpec(
+        specs.append(NodeSpec(
             name, "skin_driver", "skin_driver_node", parameter_files=(skin_file, "real"),
             parameters=overrides, description=f"skin boards of {', '.join(patches)}",
         ))
+    return specs
+
+
+def real_skin_processes(ports: dict[str, str] | None = None, layout_dir: str = "",
+                        hardware_dir: str = "", skin_process: str = DEFAULT_SKIN_PROCESS,
+                        taxel_rate_hz: float = DEFAULT_TAXEL_RATE_HZ) -> list[NodeSpec]:
+    """The skin drivers and contact estimation of the real robot, as ``skin_process`` says
+    (:data:`SKIN_PROCESSES`): one composed process, or one process per node.
+
+    Raises:
+        ValueError: unknown ``skin_process``, or ``taxel_rate_hz`` < 0 (names the value).
+    """
+    if skin_process not in SKIN_PROCESSES:
+        raise ValueError(f"skin_process refused {skin_process!r}: allowed "
+                         f"{', '.join(SKIN_PROCESSES)}")
+    if not taxel_rate_hz >= 0.0:
+        raise ValueError(f"taxel_rate_hz refused {taxel_rate_hz!r}: allowed ≥ 0 Hz "
+                         "(0 = every frame)")
+    skin_file = hardware_config(HARDWARE_CONFIG["skin_driver"], hardware_dir)
+    composed = skin_process == "composed"
+    drivers = _skin_driver_specs(
+        ports or {}, layout_dir, skin_file,
+        {"taxel_publish_rate_hz": float(taxel_rate_hz)} if composed else {})
+    estimation = NodeSpec(ESTIMATION, "contact_estimation", "contact_estimation_node",
+                          parameter_files=("real",), description="contact state per link")
+    if not composed:
+        return [*drivers, estimation]
+    return [NodeSpec(
+        SKIN_CONTACT, PACKAGE, "skin_contact_node", nodes=(*drivers, estimation),
+        arguments=("--drivers", *(d.name for d in drivers)),
+        description=f"{len(drivers)} skin drivers + contact estimation in one process "
+                    f"(direct hand-off; taxel topics at {taxel_rate_hz:g} Hz)",
+    )]
+
+
+def ros_nodes(graph: list[NodeSpec]) -> list[NodeSpec]:
+    """The ROS nodes of a graph: a multi-node process's ``nodes`` in place of the process."""
+    return [n for spec in graph for n in (spec.nodes or (spec,))]
+
+
+def real_graph(ports: dict[str, str] | None = None, layout_dir: str = "",
+               rviz: bool = False, hardware_dir: str = "",
+               base_cmd_topic: str = DEFAULT_BASE_COMMAND_TOPIC,
+               skin_process: str = DEFAULT_SKIN_PROCESS,
+               taxel_rate_hz: float = DEFAULT_TAXEL_RATE_HZ) -> list[NodeSpec]:
+    """Processes on the real robot: skin drivers and estimation (:func:`real_skin_processes`:
+    composed or separate), controller, the phri_hardware arm bridges (namespaces
+    ``left``/``right``) and base guard, and the robot state publisher.
+
+    Parameters come from phri_hardware's files (``hardware_dir`` replaces its share directory),
+    then ``config/real.yaml``; ``ports`` (driver node → port) and ``layout_dir`` (``<patch>.yaml``
+    files, made absolute) override the skin file's values when given; the base guard's output is
+    remapped to ``base_cmd_topic``."""
+    nodes = real_skin_processes(ports, layout_dir, hardware_dir, skin_process, taxel_rate_hz)
     nodes += [
-        NodeSpec(ESTIMATION, "contact_estimation", "contact_estimation_node",
-                 parameter_files=("real",), description="contact state per link"),
         NodeSpec(CONTROLLER, "wholebody_controller", "wholebody_controller_node",
                  parameter_files=("real",), description="whole-body admittance QP"),
         *(NodeSpec("ur_arm_bridge", "phri_hardware", "ur_arm_bridge_node", namespace=arm,
@@ -308,6 +376,8 @@ def robot_description_urdf() -> str:
 def launch_node_kwargs(spec: NodeSpec, urdf: str = "") -> dict[str, Any]:
     """Keyword arguments of ``launch_ros.actions.Node`` for ``spec`` (what the launch files
     pass; pure so the tests can check it without launch_ros)."""
+    if spec.nodes:
+        return _process_kwargs(spec)
     kwargs: dict[str, Any] = {
         "package": spec.package,
         "executable": spec.executable,
@@ -325,4 +395,28 @@ def launch_node_kwargs(spec: NodeSpec, urdf: str = "") -> dict[str, Any]:
         [inline] if inline else [])
     if spec.remappings:
         kwargs["remappings"] = list(spec.remappings)
+    return kwargs
+
+
+def _process_kwargs(spec: NodeSpec) -> dict[str, Any]:
+    """``launch_ros.actions.Node`` keyword arguments of a multi-node process: no ``name`` (a
+    ``__node`` remap would rename every node in it), every node's parameter files once (each
+    file's ``<node>:`` sections reach their node by name), and inline parameters scoped to their
+    node as ``-p <node>:<name>:=<value>`` (values in JSON, which the ROS argument parser reads
+    as YAML)."""
+    import json
+
+    files = list(dict.fromkeys(str(config_file(f)) for n in spec.nodes
+                               for f in n.parameter_files))
+    kwargs: dict[str, Any] = {
+        "package": spec.package,
+        "executable": spec.executable,
+        "output": "screen",
+        "arguments": list(spec.arguments),
+        "parameters": files,
+    }
+    scoped = [arg for n in spec.nodes for key, value in n.parameters.items()
+              for arg in ("-p", f"{n.name}:{key}:={json.dumps(value)}")]
+    if scoped:
+        kwargs["ros_arguments"] = scoped
     return kwargs

@@ -13,7 +13,7 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
-from phri_bringup.graph import NodeSpec, config_file
+from phri_bringup.graph import NodeSpec, config_file, ros_nodes
 
 PLACEHOLDER = "PLACEHOLDER"
 """Marker in a phri_hardware parameter file's comment: the value must be set for the robot."""
@@ -52,7 +52,7 @@ def placeholder_problems(graph: Iterable[NodeSpec]) -> list[str]:
     """One line per placeholder value a node of ``graph`` would get from its parameter files
     (values the launch arguments override, e.g. a skin ``port``, do not count)."""
     problems = []
-    for spec in graph:
+    for spec in ros_nodes(list(graph)):
         for entry in spec.parameter_files:
             path = config_file(entry)
             for number, section, key in placeholders(path):
@@ -67,7 +67,7 @@ def placeholder_problems(graph: Iterable[NodeSpec]) -> list[str]:
 def missing_layouts(graph: Iterable[NodeSpec]) -> list[str]:
     """Skin layout files given on the launch command line that do not exist."""
     return [f"skin layout {f} does not exist (`phri layouts DIR` writes nominal ones)"
-            for spec in graph for f in spec.parameters.get("layout_files", [])
+            for spec in ros_nodes(list(graph)) for f in spec.parameters.get("layout_files", [])
             if not Path(f).is_file()]
 
 

@@ -15,6 +15,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -67,3 +68,50 @@ def test_bench_chain_probe_wraps_methods_the_controller_node_has() -> None:
     spec.loader.exec_module(module)
     for method in module.PROBED_METHODS:
         assert callable(getattr(WholeBodyControllerNode, method, None)), method
+
+
+def test_bench_chain_expected_forces_follow_the_drivers_window() -> None:
+    """The force code a contact state is matched with: the mean of the last 10 frames that
+    reached the driver — a frame cut off at the full pty is skipped, and a board silence longer
+    than the driver's timeout restarts the window (else one lost frame would make the next ten
+    read as dropped)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("bench_chain", ROOT / "bench" / "bench_chain.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    pressed = np.arange(1, 31, dtype=np.int64) * 100
+    plain = module.expected_forces(pressed)
+    assert plain[0] == 100 and plain[9] == 550 and plain[29] == 2550  # means of 1..k, last 10
+    cut = np.zeros(30, dtype=np.int64)
+    cut[12] = 1
+    skipped = module.expected_forces(pressed, cut=cut)
+    assert skipped[11] == plain[11] and skipped[14] == (np.sum(pressed[4:15]) - 1300) / 10
+    board_ns = np.arange(30) * 2_000_000
+    board_ns[20:] += 200_000_000
+    restarted = module.expected_forces(pressed, cut=cut, board_ns=board_ns)
+    assert restarted[20] == 2100 and restarted[22] == 2200 and restarted[19] == skipped[19]
+
+
+def test_bench_chain_matches_every_state_to_its_own_frame_across_the_code_wrap() -> None:
+    """Contact states stamped within a few ms of their frame and carrying its expected force
+    are matched to exactly that frame, also where the force code wraps (MODULUS frames) and the
+    moving average revisits values nearby frames also take."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("bench_chain", ROOT / "bench" / "bench_chain.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    period = 2_000_000
+    n = 3 * module.MODULUS
+    board = np.arange(n, dtype=np.int64) * period
+    pressed = np.round((module.F0 + module.DELTA * (np.arange(n) % module.MODULUS)) * 1e6)
+    offset = 5_000_000_000
+    sent = np.column_stack([board, board + offset + 300_000, pressed.astype(np.int64),
+                            np.zeros(n, dtype=np.int64)])
+    expected = module.expected_forces(sent[:, 2])
+    jitter = np.random.default_rng(0).integers(-3_000_000, 3_000_000, n)  # stamp error [ns]
+    found = module.match_frames(board + offset + 300_000 + jitter, expected, sent, period)
+    np.testing.assert_array_equal(found, np.arange(n))

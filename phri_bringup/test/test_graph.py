@@ -38,8 +38,17 @@ def test_launch_files_build_their_nodes_from_the_graph_module(name: str, builder
 
 
 def test_launch_kwargs_point_at_existing_parameter_files() -> None:
-    for spec in graph.sim_graph("wholebody", rviz=True) + graph.real_graph(rviz=True):
+    specs = graph.sim_graph("wholebody", rviz=True) + graph.real_graph(rviz=True) + \
+        graph.real_graph(skin_process="separate")
+    for spec in specs:
         kwargs = graph.launch_node_kwargs(spec, urdf="<robot/>")
+        if spec.nodes:  # a multi-node process: every node's files, no __node rename
+            assert "name" not in kwargs and kwargs["executable"] == spec.executable
+            for node in spec.nodes:
+                for f in node.parameter_files:
+                    assert str(graph.config_file(f)) in kwargs["parameters"]
+                    assert node.name in params.load(graph.config_file(f)), (node.name, f)
+            continue
         assert kwargs["executable"] == spec.executable and kwargs["name"] == spec.name
         if spec.package == "rviz2":
             assert Path(kwargs["arguments"][1]).is_file()
@@ -54,8 +63,10 @@ def test_launch_kwargs_point_at_existing_parameter_files() -> None:
             assert inline[0]["robot_description"] == "<robot/>"
 
 
-def test_real_graph_references_the_hardware_nodes() -> None:
-    nodes = graph.real_graph({"skin_driver_left": "/dev/ttyUSB7"})
+@pytest.mark.parametrize("skin_process", graph.SKIN_PROCESSES)
+def test_real_graph_references_the_hardware_nodes(skin_process: str) -> None:
+    nodes = graph.ros_nodes(graph.real_graph({"skin_driver_left": "/dev/ttyUSB7"},
+                                             skin_process=skin_process))
     by = {(n.namespace, n.name): n for n in nodes}
     assert by[("left", "ur_arm_bridge")].executable == "ur_arm_bridge_node"
     assert by[("right", "ur_arm_bridge")].package == "phri_hardware"
@@ -69,7 +80,7 @@ def test_real_graph_loads_phri_hardware_configs_and_remaps_the_base() -> None:
     """Every hardware node gets its phri_hardware file first (then real.yaml), so the arm
     bridges see a robot_ip and the skin drivers a port and layouts; the base guard's output goes
     to the driver topic given on the command line."""
-    nodes = graph.real_graph(base_cmd_topic="/platform/cmd_vel")
+    nodes = graph.ros_nodes(graph.real_graph(base_cmd_topic="/platform/cmd_vel"))
     share = graph.share_dir("phri_hardware") / "config"
     for n in nodes:
         if n.package in ("phri_hardware", "skin_driver"):
@@ -86,13 +97,61 @@ def test_real_graph_loads_phri_hardware_configs_and_remaps_the_base() -> None:
 
 def test_real_graph_layout_dir_is_made_absolute(tmp_path: Path, monkeypatch: Any) -> None:
     monkeypatch.chdir(tmp_path)
-    nodes = graph.real_graph(layout_dir="layouts", hardware_dir=str(tmp_path / "site"))
+    nodes = graph.ros_nodes(graph.real_graph(layout_dir="layouts",
+                                             hardware_dir=str(tmp_path / "site")))
     files = [Path(f) for n in nodes if n.package == "skin_driver"
              for f in n.parameters["layout_files"]]
     assert sorted(f.stem for f in files) == sorted(graph.PATCHES)
     assert all(f.is_absolute() and f.parent == tmp_path / "layouts" for f in files)
     arm = next(n for n in nodes if n.name == "ur_arm_bridge")
     assert arm.parameter_files == (str(tmp_path / "site" / "ur_arms.yaml"),)
+
+
+def test_skin_process_composed_or_separate_holds_the_same_nodes() -> None:
+    """Composed, the drivers and the estimator are one skin_contact_node process whose
+    ``--drivers`` are the driver nodes; separate, one process each; the nodes, their files and
+    their parameters are the same either way except the composed drivers' taxel rate."""
+    composed = graph.real_graph({"skin_driver_left": "/dev/ttyUSB7"}, taxel_rate_hz=25.0)
+    separate = graph.real_graph({"skin_driver_left": "/dev/ttyUSB7"}, skin_process="separate")
+    assert graph.DEFAULT_SKIN_PROCESS == "composed"
+    process = next(s for s in composed if s.nodes)
+    assert (process.package, process.executable) == ("phri_bringup", "skin_contact_node")
+    drivers = list(graph.REAL_SKIN_PORTS)
+    assert list(process.arguments) == ["--drivers", *drivers]
+    assert [n.name for n in process.nodes] == [*drivers, graph.ESTIMATION]
+    assert not any(s.nodes for s in separate)
+    assert len(separate) == len(composed) + len(drivers)
+    by_composed = {n.name: n for n in graph.ros_nodes(composed)}
+    by_separate = {n.name: n for n in graph.ros_nodes(separate)}
+    assert set(by_composed) == set(by_separate)
+    for name in drivers:
+        assert by_composed[name].parameters == {**by_separate[name].parameters,
+                                                "taxel_publish_rate_hz": 25.0}
+        assert "taxel_publish_rate_hz" not in by_separate[name].parameters
+    assert by_composed[graph.ESTIMATION] == by_separate[graph.ESTIMATION]
+    with pytest.raises(ValueError, match="skin_process refused 'fused'"):
+        graph.real_graph(skin_process="fused")
+    with pytest.raises(ValueError, match="taxel_rate_hz refused -1"):
+        graph.real_graph(taxel_rate_hz=-1.0)
+
+
+def test_composed_process_kwargs_scope_inline_parameters_to_their_node() -> None:
+    """A ``__node`` remap would rename every node in the process, and an unscoped inline
+    parameter would reach every node: the kwargs have neither."""
+    spec = next(s for s in graph.real_graph({"skin_driver_right": "/dev/ttyS3"},
+                                            layout_dir="/site/layouts") if s.nodes)
+    kwargs = graph.launch_node_kwargs(spec)
+    assert "name" not in kwargs and "remappings" not in kwargs
+    assert all(isinstance(p, str) for p in kwargs["parameters"])
+    assert kwargs["arguments"] == ["--drivers", *graph.REAL_SKIN_PORTS]
+    scoped = kwargs["ros_arguments"]
+    assert scoped[::2] == ["-p"] * (len(scoped) // 2)
+    assert '-p' not in scoped[1::2]
+    assert 'skin_driver_right:port:="/dev/ttyS3"' in scoped
+    assert "skin_driver_left:port:=" not in " ".join(scoped)
+    assert 'skin_driver_right:layout_files:=["/site/layouts/right_forearm.yaml"]' in scoped
+    assert f"skin_driver_left:taxel_publish_rate_hz:={graph.DEFAULT_TAXEL_RATE_HZ}" in scoped
+    assert not [a for a in scoped[1::2] if a.split(":")[0] not in graph.REAL_SKIN_PORTS]
 
 
 def test_rviz_runs_on_sim_time_in_the_simulation() -> None:
@@ -143,3 +202,15 @@ def test_runner_nodes_and_parameters_match_the_graph(ros_context: Any, scenario:
     assert set(seen) == {s.name for s in specs}
     assert len(seen[graph.CONTROLLER]) > 10
     assert result.zero_at_exit
+
+
+@pytest.mark.parametrize("name", ["sim.launch.py", "real.launch.py"])
+def test_every_launch_argument_is_documented(name: str) -> None:
+    """docs/bringup.md's launch argument table names every DeclareLaunchArgument."""
+    declared = {c.args[0].value for c in ast.walk(_launch_tree(name))
+                if isinstance(c, ast.Call) and getattr(c.func, "id", "") ==
+                "DeclareLaunchArgument" and isinstance(c.args[0], ast.Constant)}
+    docs = (Path(__file__).resolve().parents[2] / "docs" / "bringup.md").read_text("utf-8")
+    rows = {cell.strip("` ") for line in docs.splitlines() if line.startswith("| `")
+            for cell in line.split("|")[1].split("(")[0].split(",")}
+    assert declared and declared <= rows, declared - rows

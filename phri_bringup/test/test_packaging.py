@@ -70,7 +70,8 @@ def _key(module: str, keys: dict[str, str | None]) -> str | None:
 def _launched_packages() -> set[str]:
     nodes = graph.sim_graph("waltz", rviz=True) + graph.real_graph(rviz=True)
     recorded = {t.type.split("/")[0] for t in graph.SIM_TOPICS}  # recording.py imports these
-    return {n.package for n in nodes} | recorded | {"launch", "launch_ros"}
+    processes = {n.package for n in nodes + graph.ros_nodes(nodes)} - {graph.PACKAGE}
+    return processes | recorded | {"launch", "launch_ros"}
 
 
 @pytest.mark.parametrize("package", PACKAGES)

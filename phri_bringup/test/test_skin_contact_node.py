@@ -88,3 +88,52 @@ def test_a_driver_patch_unknown_to_the_estimator_is_refused_by_name(
         compose(["driver"], context=ros_context, overrides={
             "driver": driver_params(tmp_path / "none", tmp_path / "chest.yaml", 0.0),
             "contact_estimation": ESTIMATOR})
+
+
+@pytest.mark.ros
+def test_the_launch_command_of_the_composed_process_configures_each_node(
+    tmp_path: Path,
+) -> None:
+    """real.launch.py's composed process, from its launch kwargs: the ``--drivers`` names,
+    the parameter files and the node-scoped ``-p`` overrides reach each node under its name
+    (the files' sections, the launch arguments' port, layouts and taxel rate), and the
+    estimator does not subscribe to the taxel topics."""
+    import rclpy
+    from rclpy.context import Context
+
+    from phri_bringup import graph
+    from phri_bringup.cli import main as phri
+
+    assert phri(["layouts", str(tmp_path / "layouts")]) == 0
+    ports = {name: str(tmp_path / f"{name}.pty") for name in graph.REAL_SKIN_PORTS}
+    spec = next(s for s in graph.real_graph(ports, layout_dir=str(tmp_path / "layouts"),
+                                            taxel_rate_hz=40.0) if s.nodes)
+    kwargs = graph.launch_node_kwargs(spec)
+    files = [a for f in kwargs["parameters"] for a in ("--params-file", f)]
+    names = kwargs["arguments"][1:]
+    context = Context()
+    rclpy.init(args=["skin_contact_node", "--ros-args", *files, *kwargs["ros_arguments"]],
+               context=context)
+    nodes: list[Node] = []
+    try:
+        nodes = compose(names, context=context)
+        by = {n.get_name(): n for n in nodes}
+        assert set(by) == {*graph.REAL_SKIN_PORTS, graph.ESTIMATION}
+        for name, patches in graph.REAL_SKIN_PORTS.items():
+            driver = by[name]
+            assert driver.get_parameter("port").value == ports[name]
+            assert driver.get_parameter("taxel_publish_rate_hz").value == 40.0
+            assert [Path(f).stem for f in driver.get_parameter("layout_files").value] == \
+                list(patches)
+            assert len(driver.get_parameter("board_ids").value) == len(patches)  # skin_real
+        estimation = by[graph.ESTIMATION]
+        assert estimation.get_parameter("subscribe_taxels").value is False
+        real = graph.config_file("real")
+        from phri_bringup import params
+        for key, value in params.load(real)[graph.ESTIMATION].items():
+            actual = estimation.get_parameter(key).value
+            assert (list(actual) if isinstance(value, list) else actual) == value, key
+    finally:
+        for node in reversed(nodes):
+            node.destroy_node()
+        rclpy.try_shutdown(context=context)

@@ -17,6 +17,10 @@ Pipeline for every frame of one patch (N taxels, raw counts ``c``):
    counted as saturated and report their full-scale force (a lower bound of the true force, so a
    hard push is not lost).
 6. Output ``max(f_filtered − baseline, 0)`` [N]: the normal force pressing on each taxel.
+
+``CalibrationConfig.kernel`` picks the implementation: ``numpy`` (this module, the reference
+and the tests' oracle) or ``numba`` (:mod:`skin_driver.fused`: the same steps in two compiled
+loops over the taxels; the driver node's default).
 """
 
 from __future__ import annotations
@@ -30,6 +34,8 @@ from numpy.typing import NDArray
 from phri_common import paper
 
 FloatArray = NDArray[np.float64]
+KERNELS: tuple[str, ...] = ("numpy", "numba")
+"""Implementations of :meth:`PatchCalibrator.process` (``CalibrationConfig.kernel``)."""
 
 
 def counts_to_force(
@@ -63,6 +69,7 @@ class CalibrationConfig:
             0 disables the check.
         min_free_fraction: fraction of live taxels that must be untouched to estimate the
             common-mode drift; below it, touched taxels' baselines are frozen.
+        kernel: ``numpy`` (reference) or ``numba`` (:mod:`skin_driver.fused`, compiled).
     """
 
     default_gain: float = 0.0005
@@ -76,8 +83,12 @@ class CalibrationConfig:
     saturation_count: int = 65535
     stuck_time: float = 5.0
     min_free_fraction: float = 0.2
+    kernel: str = "numpy"
 
     def __post_init__(self) -> None:
+        if self.kernel not in KERNELS:
+            raise ValueError(f"calibration setting kernel refused value {self.kernel!r}: "
+                             f"allowed {', '.join(KERNELS)}")
         inf = math.inf
         ranges = {  # name → allowed [low, high] (open at 0 for release_time_constant)
             "default_gain": (0.0, inf),
@@ -177,6 +188,12 @@ class PatchCalibrator:
         self._touched_at_tare = 0
         self._stuck = np.zeros(size, bool)
         self._saturated = 0
+        self._filtered = np.zeros(size)
+        if config.kernel == "numba":  # imported here: numba only where it is used
+            from skin_driver.fused import calibrate_counts, track_drift_and_output, warm_up
+
+            warm_up()
+            self._kernels = (calibrate_counts, track_drift_and_output)
         self.tare()
 
     @property
@@ -227,9 +244,59 @@ class PatchCalibrator:
         Raises:
             ValueError: ``counts`` has the wrong shape.
         """
-        cfg = self.config
         if counts.shape != (self.size,):
             raise ValueError(f"expected {self.size} taxels, got {counts.shape}")
+        if self.config.kernel == "numba":
+            return self._process_fused(counts, t)
+        return self._process_numpy(counts, t)
+
+    def _step_dt(self, t: float) -> float:
+        """Δt [s] since the previous frame, bounded to [0, 0.1] so a pause (silence,
+        reconnect) does not make one huge drift step; 0 for the first frame."""
+        dt = 0.0 if self._last_t is None else min(max(t - self._last_t, 0.0), 0.1)
+        self._last_t = t
+        return dt
+
+    def _finish_tare(self) -> None:
+        """Tare complete: each taxel's mean becomes its zero unless it was touched (> shift)."""
+        mean = self._tare_sum / self.config.tare_frames
+        touched = mean > self.config.tare_max_shift
+        self._touched_at_tare = int(np.count_nonzero(touched))
+        self._baseline = np.where(touched, 0.0, mean)
+
+    def _process_fused(self, counts: NDArray[np.integer], t: float) -> FloatArray | None:
+        """:meth:`process` with the compiled kernels (:mod:`skin_driver.fused`)."""
+        calibrate_counts, track_drift_and_output = self._kernels
+        cfg = self.config
+        window = cfg.filter_window
+        full = self._ring_count == window
+        self._ring_count = window if full else self._ring_count + 1
+        pos = self._ring_pos
+        taring = self._tare_left > 0
+        self._saturated = calibrate_counts(
+            np.ascontiguousarray(counts), self._gain, self._offset,
+            cfg.saturation_count, cfg.stuck_time, t, self._last_counts, self._last_change,
+            self._stuck, self._ring, self._ring_sum, pos, full, self._ring_count, taring,
+            self._tare_sum, self._filtered)
+        self._ring_pos = (pos + 1) % window
+        self._count_resum()
+        dt = self._step_dt(t)
+        if taring:
+            self._tare_left -= 1
+            if self._tare_left == 0:
+                self._finish_tare()
+            return None
+        out = np.empty(self.size)
+        track_drift_and_output(
+            self._filtered, self._baseline, self._dead_static, self._stuck,
+            cfg.drift_time_constant > 0 and dt > 0, cfg.drift_band,
+            min(dt / cfg.drift_time_constant, 1.0) if cfg.drift_time_constant > 0 else 0.0,
+            min(dt / cfg.release_time_constant, 1.0), cfg.min_free_fraction, out)
+        return out
+
+    def _process_numpy(self, counts: NDArray[np.integer], t: float) -> FloatArray | None:
+        """:meth:`process` in numpy (the reference)."""
+        cfg = self.config
         raw = counts.astype(np.int32)
         force = counts_to_force(raw, self._gain, self._offset)
         saturated = raw >= cfg.saturation_count
@@ -238,18 +305,13 @@ class PatchCalibrator:
             np.copyto(self._last_change, t, where=raw != self._last_counts)
             self._last_counts = raw
             self._stuck = self._last_change <= t - cfg.stuck_time
-        # Δt bounded so a pause (silence, reconnect) does not make one huge drift step.
-        dt = 0.0 if self._last_t is None else min(max(t - self._last_t, 0.0), 0.1)
-        self._last_t = t
+        dt = self._step_dt(t)
         filtered = self._filter(force)
         if self._tare_left > 0:
             self._tare_sum += force
             self._tare_left -= 1
             if self._tare_left == 0:
-                mean = self._tare_sum / cfg.tare_frames
-                touched = mean > cfg.tare_max_shift
-                self._touched_at_tare = int(np.count_nonzero(touched))
-                self._baseline = np.where(touched, 0.0, mean)
+                self._finish_tare()
             return None
         if cfg.drift_time_constant > 0 and dt > 0:
             self._track_drift(filtered, dt)
@@ -267,13 +329,17 @@ class PatchCalibrator:
         self._ring[self._ring_pos] = force
         self._ring_sum += force
         self._ring_pos = (self._ring_pos + 1) % window
+        self._count_resum()
+        return self._ring_sum / self._ring_count
+
+    def _count_resum(self) -> None:
+        """Re-sum the window every 4096 frames: the running sum would otherwise accumulate
+        rounding error. Rows not yet filled are zero, so the full sum is right during warm-up
+        too (in place: the compiled kernel holds no reference, but keep one array)."""
         self._frames_since_resum += 1
         if self._frames_since_resum >= 4096:
-            # Re-sum now and then: the running sum would otherwise accumulate rounding error.
-            # Rows not yet filled are zero, so the full sum is right during warm-up too.
-            self._ring_sum = self._ring.sum(axis=0)
+            self._ring_sum[:] = self._ring.sum(axis=0)
             self._frames_since_resum = 0
-        return self._ring_sum / self._ring_count
 
     def _track_drift(self, filtered: FloatArray, dt: float) -> None:
         cfg = self.config

@@ -23,6 +23,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
+import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.context import Context
 from rclpy.node import Node
@@ -40,11 +41,11 @@ from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
 from phri_common.taxels import TaxelCloudEncoder
 from skin_driver.board_clock import BoardClock
-from skin_driver.calibration import CalibrationConfig, PatchCalibrator
+from skin_driver.calibration import KERNELS, CalibrationConfig, FloatArray, PatchCalibrator
 from skin_driver.diagnostics import BoardSnapshot, PortSnapshot, board_status, port_status
 from skin_driver.layout import LayoutError, SkinLayout, load_layout
 from skin_driver.protocol import MAX_TAXELS, BoardSequence, Frame, FrameParser
-from skin_driver.transport import SerialReader
+from skin_driver.transport import PortPoller, SerialReader
 
 FrameListener = Callable[[str, TaxelArray], None]
 """Receives (patch name, calibrated taxel array) for every frame (see add_frame_listener)."""
@@ -99,6 +100,8 @@ PARAMS: list[ParamSpec] = [
               "published; 0 = every frame. Lower it only when the frames also reach the "
               "estimator directly (skin_contact_node)", unit="Hz", low=0.0, high=10_000.0,
               read_only=True),
+    ParamSpec("kernel", KERNELS[1], "how a frame is calibrated: numba (compiled, default) or "
+              "numpy (the reference); same forces to rounding", read_only=True),
     ParamSpec("qos_depth", 5, "keep-last depth of the taxel publishers (reliable)",
               unit="messages", low=1, high=1000, read_only=True),
 ]
@@ -110,7 +113,14 @@ def _period_s(rate_hz: float) -> float:
 
 
 def calibration_config(values: dict[str, ParamValue]) -> CalibrationConfig:
-    """Parameter values → calibration settings (pure)."""
+    """Parameter values → calibration settings (pure).
+
+    Raises:
+        ParameterValueError: ``kernel`` not one of :data:`~skin_driver.calibration.KERNELS`.
+    """
+    if values["kernel"] not in KERNELS:
+        raise ParameterValueError(f"parameter 'kernel' refused value {values['kernel']!r}: "
+                                  f"allowed {', '.join(KERNELS)}")
     return CalibrationConfig(
         default_gain=float(values["default_gain"]),
         default_offset=float(values["default_offset"]),
@@ -122,6 +132,7 @@ def calibration_config(values: dict[str, ParamValue]) -> CalibrationConfig:
         release_time_constant=float(values["release_time_constant"]),
         saturation_count=int(values["saturation_count"]),
         stuck_time=float(values["stuck_time"]),
+        kernel=str(values["kernel"]),
     )
 
 
@@ -176,6 +187,21 @@ class _Channel:
     """Sequence gaps of the frames accepted for this board (dropped = gaps only)."""
     clock: BoardClock = field(default_factory=BoardClock)
     next_publish_mono: float = 0.0
+    geometry: tuple[FloatArray, FloatArray, FloatArray | None] = field(init=False)
+    """Read-only copies of the layout's positions, normals and weights: a TaxelArray built
+    from them (and from read-only forces) copies nothing (phri_common.records.frozen)."""
+
+    def __post_init__(self) -> None:
+        self.geometry = (_read_only(self.layout.positions), _read_only(self.layout.normals),
+                         None if self.layout.weights is None
+                         else _read_only(self.layout.weights))
+
+
+def _read_only(array: FloatArray) -> FloatArray:
+    """A read-only copy of ``array``."""
+    copy = np.array(array, dtype=np.float64)
+    copy.flags.writeable = False
+    return copy
 
 
 class SkinDriverNode(Node):
@@ -190,8 +216,12 @@ class SkinDriverNode(Node):
         context: Context | None = None,
         node_name: str = "skin_driver",
         parameter_overrides: list[Parameter] | None = None,
+        poller: PortPoller | None = None,
     ) -> None:
+        """``poller``: read the port on this shared thread (several drivers in one process,
+        ``skin_contact_node``) instead of the node's own serial thread."""
         super().__init__(node_name, context=context, parameter_overrides=parameter_overrides)
+        self._poller = poller
         try:
             self._values = declare_parameters(self, PARAMS, on_change=self._on_change)
             v = self._values
@@ -270,6 +300,7 @@ class SkinDriverNode(Node):
             clock=lambda: self.get_clock().now().nanoseconds,
             on_connect=self._on_connect,
             on_error=self._on_port_error,
+            poller=self._poller,
         )
 
     # ------------------------------------------------------------------ serial thread side
@@ -320,11 +351,12 @@ class SkinDriverNode(Node):
         if forces is None:
             return
         if self._listeners:
-            layout = channel.layout
-            taxels = TaxelArray(layout.positions, layout.normals, forces, layout.weights,
-                                layout.link, stamp_ns)
+            forces.flags.writeable = False  # a fresh array per frame, now shared read-only
+            positions, normals, weights = channel.geometry
+            taxels = TaxelArray(positions, normals, forces, weights, channel.layout.link,
+                                stamp_ns)
             for listener in self._listeners:
-                listener(layout.patch, taxels)
+                listener(channel.layout.patch, taxels)
         if mono >= channel.next_publish_mono:
             channel.publisher.publish(channel.encoder.encode(forces, stamp_ns))
             channel.published += 1

@@ -131,10 +131,17 @@ class SimBoard:
         forces = np.asarray(forces, dtype=np.float64)
         if forces.shape != (self.size,):
             raise ValueError(f"forces must have shape ({self.size},), got {forces.shape}")
-        value = self.offsets + (forces + self.drift_rate * t) * self._inv_gain
+        # In place, and nan_to_num only when needed: the same counts at half the cost (the
+        # boards are the benchmarks' test rig and must not be what limits them).
+        value = forces + self.drift_rate * t
+        value *= self._inv_gain
+        value += self.offsets
         if self.noise_counts > 0:
-            value = value + self._rng.normal(0.0, self.noise_counts, self.size)
-        return np.clip(np.rint(np.nan_to_num(value)), 0, 65535).astype("<u2")
+            value += self._rng.normal(0.0, self.noise_counts, self.size)
+        if not np.isfinite(value).all():
+            value = np.nan_to_num(value)
+        np.rint(value, out=value)
+        return np.clip(value, 0, 65535, out=value).astype("<u2")
 
     def frame(self, forces: FloatArray, t: float, *, overrun: bool = False) -> bytes:
         """Bytes to send for one sample: a frame, with faults applied (maybe only garbage)."""

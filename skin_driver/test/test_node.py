@@ -19,6 +19,7 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import PointCloud2
 
 from phri_common.params import ParameterValueError
+from phri_common.records import TaxelArray
 from phri_common.taxels import msg_to_taxels
 from phri_common.testing import spin_until
 from skin_driver.layout import rectangular_patch, save_layout
@@ -349,3 +350,31 @@ def test_node_process_refuses_a_bad_parameter_with_exit_code_2(tmp_path: Path) -
                             capture_output=True, text=True, timeout=60, check=False)
     assert result.returncode == 2
     assert "parameter 'filter_window'" in result.stderr and "refused value 0" in result.stderr
+
+
+@pytest.mark.ros
+def test_frame_listeners_get_shared_read_only_arrays(ros_context, setup) -> None:  # type: ignore[no-untyped-def]
+    """A composed estimator's hand-off copies nothing per frame: every TaxelArray shares one
+    read-only copy of the layout's geometry, and its forces are read-only (a listener cannot
+    change what the publisher then sends)."""
+    layout, layout_file, link = setup
+    pressed = press_pattern(layout, force=4.0, radius=0.008, period=0.0)
+    board = Board(link, [(SimBoard(4, layout, noise_counts=2.0, seed=0), pressed)])
+    board.start()
+    node = _node(ros_context, link, layout_file, tare_frames=5)
+    got: list[TaxelArray] = []
+    node.add_frame_listener(lambda patch, taxels: got.append(taxels))
+    try:
+        deadline = time.monotonic() + 10.0
+        while len(got) < 20 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert len(got) >= 20
+        first, last = got[0], got[-1]
+        assert last.positions is first.positions and last.normals is first.normals
+        assert not last.positions.flags.writeable and not last.forces.flags.writeable
+        assert last.forces is not first.forces
+        np.testing.assert_array_equal(last.positions, layout.positions)
+        np.testing.assert_allclose(last.forces, pressed(0.0), atol=0.01)
+    finally:
+        board.vanish()
+        node.destroy_node()

@@ -121,3 +121,22 @@ def test_cli_writes_frames_into_a_pty(tmp_path: Path) -> None:
     assert rc == [0]
     assert set(parser.stats.boards) == {0, 1}
     assert parser.stats.frames > 100
+
+
+def test_counts_are_offset_plus_force_over_gain_plus_noise_rounded_and_clipped() -> None:
+    """count = clip(rint(offset + (F + drift·t)/gain + noise), 0, 65535); NaN → 0 and ±inf →
+    the range's ends (written out here independently of the in-place implementation)."""
+    from skin_driver.layout import rectangular_patch
+
+    layout = rectangular_patch("p", "l", 10, 12)
+    board = SimBoard(0, layout, noise_counts=2.0, drift_rate=0.01, seed=3)
+    noise = np.random.default_rng(3)  # the board's stream: same seed, same draws
+    forces = np.random.default_rng(9).normal(0.0, 3.0, (50, layout.size))
+    forces[::7, 5], forces[::7, 6], forces[::7, 7], forces[:, 8] = np.nan, np.inf, -np.inf, 1e9
+    for k, f in enumerate(forces):
+        t = 0.002 * k
+        value = board.offsets + (f + 0.01 * t) * (1.0 / board.gains) + noise.normal(0, 2.0, f.size)
+        value = np.where(np.isnan(value), 0.0, value)
+        expected = np.clip(np.rint(value), 0, 65535).astype(np.uint16)
+        np.testing.assert_array_equal(board.counts(f, t), expected)
+        assert np.array_equal(f[:5], forces[k, :5])  # the caller's array is not modified
