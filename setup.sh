@@ -42,5 +42,7 @@ editable=()
 for pkg in "${PACKAGES[@]}"; do editable+=(-e "./$pkg"); done
 PYTHONWARNINGS=ignore .venv/bin/python -m pip install --quiet --disable-pip-version-check --no-deps \
     --no-build-isolation "${editable[@]}"
+echo "setup.sh: compiling the numba kernels (first run about a minute, then cached)"
+.venv/bin/python -m phri_bringup.compile_kernels
 stamp_of_inputs > "$STAMP_FILE"
 echo "setup.sh: done; commands are in .venv/bin (phri, skin_driver_node, contact_estimation_node, ...)"

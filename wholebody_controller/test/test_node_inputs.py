@@ -220,3 +220,42 @@ def test_commands_are_published_as_the_reference_messages(node: RecordingNode) -
     assert twist == command_to_twist(command)
     assert left == arm_command(command[3:9], node.left_joints)
     assert right == arm_command(command[9:15], node.right_joints)
+
+
+def test_a_burst_of_contact_states_is_queued_not_dropped(ros_context: object) -> None:
+    """States published while the controller is held off the CPU (a 40 ms stall at 500 Hz: 20
+    states of a link) all reach it when it runs again: with the sensor-data depth of 5 the DDS
+    queue kept only the last 5 (bench_chain's dropped frames)."""
+    import time
+
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.node import Node
+    from rclpy.qos import QoSProfile
+    from sensor_msgs.msg import PointCloud2
+
+    controller = RecordingNode(ros_context)
+    peer = Node("contact_burst_peer", context=ros_context)  # type: ignore[arg-type]
+    link = "left_forearm_link"
+    pub = peer.create_publisher(PointCloud2, f"contacts/{link}", QoSProfile(depth=50))
+    received: list[bytes] = []
+    controller.on_contact_bytes = lambda lk, data: received.append(data)  # type: ignore[method-assign]
+    executor = SingleThreadedExecutor(context=ros_context)  # type: ignore[arg-type]
+    executor.add_node(controller)
+    try:
+        deadline = time.monotonic() + 10.0
+        while pub.get_subscription_count() < 1 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert pub.get_subscription_count() >= 1, "no discovery"
+        for k in range(20):
+            state = ContactState(link, 1_000_000_000 + 2_000_000 * k, True, CENTER, PUSH,
+                                 np.zeros(3), CENTER - 0.02, CENTER + 0.02, 16)
+            pub.publish(contact_to_msg(state))
+        time.sleep(0.3)  # the controller does not spin: the states wait in its reader queue
+        deadline = time.monotonic() + 5.0
+        while len(received) < 20 and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+        assert len(received) == 20
+    finally:
+        executor.shutdown()
+        peer.destroy_node()
+        controller.destroy_node()

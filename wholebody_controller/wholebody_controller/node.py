@@ -28,7 +28,7 @@ from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 from numpy.typing import NDArray
 from rclpy.node import Node
-from rclpy.qos import qos_profile_sensor_data
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Float64MultiArray
@@ -88,6 +88,15 @@ def freshness_config(values: dict[str, ParamValue]) -> FreshnessConfig:
         joint_state_timeout=float(values["joint_state_timeout"]),
         odom_timeout=float(values["odom_timeout"]),
     )
+
+
+CONTACT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=25,
+                         reliability=ReliabilityPolicy.BEST_EFFORT)
+"""Contact states: best effort (a late state is never worth a retransmission), but 25 deep —
+50 ms of a link's 500 Hz states — because with the sensor-data depth of 5 a controller process
+held off the CPU for over 10 ms lost states in the DDS queue (bench_chain: 0.04 % of frames on a
+quiet machine, ≈ 5 % on a loaded one). Every queued state is read in order; the stamps' age
+check (``contact_timeout``) still refuses what is stale."""
 
 
 class WholeBodyControllerNode(Node):
@@ -161,7 +170,7 @@ class WholeBodyControllerNode(Node):
             self.create_subscription(
                 PointCloud2, f"contacts/{link}",
                 lambda data, link=link: self.on_contact_bytes(link, data),
-                qos_profile_sensor_data, raw=True,
+                CONTACT_QOS, raw=True,
             )
         # Joint states and odometry too: phri_common.cdr reads the few fields used.
         self.create_subscription(JointState, "/joint_states", self.on_joints_bytes,
