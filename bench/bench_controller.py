@@ -156,13 +156,13 @@ def controller_cases(repeats: int) -> dict[str, Case]:
     cases["full step: estimation 3×10,000 + controller, daqp"] = stepper("daqp", 10_000)
     cases["full step, controller with the python kernel (before), 3×2,000"] = stepper(
         "daqp", 2_000, step_kernel="python")
-    cases["full step, estimation with the numpy kernel (before), 3×2,000"] = stepper(
+    cases["full step, estimation, numpy reference sums, 3×2,000"] = stepper(
         "daqp", 2_000, "numpy")
-    cases["full step, estimation with the numpy kernel (before), 3×10,000"] = stepper(
+    cases["full step, estimation, numpy reference sums, 3×10,000"] = stepper(
         "daqp", 10_000, "numpy")
     cases["  contact estimation, 3 × 2,000 taxels"] = skin[2_000].estimate
     cases["  contact estimation, 3 × 10,000 taxels"] = skin[10_000].estimate
-    cases["  contact estimation, 3 × 2,000 taxels, numpy kernel (before)"] = (
+    cases["  contact estimation, 3 × 2,000 taxels, numpy reference sums"] = (
         numpy_skin[2_000].estimate)
     cases["  controller step (3 links in contact), daqp"] = stepper("daqp", None)
     cases["  controller step, python kernel (before), daqp"] = stepper(

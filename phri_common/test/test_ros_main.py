@@ -91,20 +91,26 @@ def test_unknown_executor_is_refused_naming_variable_value_and_choices(
         make_executor()
 
 
-@pytest.mark.parametrize("executor", EXECUTORS)
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
-def test_run_nodes_runs_timers_and_stops_on_signal(executor: str, sig: int) -> None:
-    proc = start_child(executor)
+def signal_after_a_second(proc: subprocess.Popen[str], sig: int) -> tuple[str, str]:
+    """Wait for the child's "ready", let it run 1 s, send ``sig``; its (stdout, stderr), read
+    within 2 s (the child is killed if it does not end by then)."""
     try:
         assert proc.stdout is not None
         assert proc.stdout.readline().strip() == "ready"
         time.sleep(1.0)
         proc.send_signal(sig)
-        out, err = proc.communicate(timeout=2.0)
+        return proc.communicate(timeout=2.0)
     finally:
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+
+
+@pytest.mark.parametrize("executor", EXECUTORS)
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_run_nodes_runs_timers_and_stops_on_signal(executor: str, sig: int) -> None:
+    proc = start_child(executor)
+    out, err = signal_after_a_second(proc, sig)
     assert proc.returncode == 0, err[-2000:]
     rate = float(out.split("destroyed")[1])
     assert 350 <= rate <= 510  # 500 Hz timer; loose floor for a loaded shared machine
@@ -192,15 +198,6 @@ def test_run_nodes_stops_on_signal_while_overloaded(executor: str, sig: int) -> 
     still stop within 2 s of the signal (a slice of the events executor never ends by its
     timeout then; the signal must end it)."""
     proc = start_child(executor, busy_s=0.003)
-    try:
-        assert proc.stdout is not None
-        assert proc.stdout.readline().strip() == "ready"
-        time.sleep(1.0)
-        proc.send_signal(sig)
-        out, err = proc.communicate(timeout=2.0)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
+    out, err = signal_after_a_second(proc, sig)
     assert proc.returncode == 0, err[-2000:]
     assert "destroyed" in out
