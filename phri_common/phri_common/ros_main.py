@@ -149,13 +149,26 @@ def timer_callback(callback: Callable[[], object]) -> Callable[[], None]:
     return call
 
 
+def failed(nodes: Sequence[Node]) -> str | None:
+    """The first node's unrecoverable error, as ``"<node>: <error>"``: a node whose own thread
+    ended on an error sets its ``fatal_error`` attribute (e.g. the controller's control thread),
+    and ``run_nodes`` then ends the process with code 1, as an exception escaping a callback
+    would."""
+    for node in nodes:
+        error = getattr(node, "fatal_error", None)
+        if error is not None:
+            return f"{node.get_name()}: {error!r}"
+    return None
+
+
 def run_nodes(
     make_nodes: Callable[[], Sequence[Node]],
     name: str,
     args: Sequence[str] | None = None,
 ) -> int:
-    """Create nodes, spin them until SIGINT/SIGTERM, destroy them (nodes send their zero command
-    in ``destroy_node``) and return the process exit code.
+    """Create nodes, spin them until SIGINT/SIGTERM or a node's ``fatal_error`` (:func:`failed`:
+    exit code 1), destroy them (nodes send their zero command in ``destroy_node``) and return the
+    process exit code.
 
     A ``ValueError`` while creating the executor or the nodes (e.g. a refused parameter) is
     printed with the node name and gives exit code 2 instead of a traceback.
@@ -186,7 +199,11 @@ def run_nodes(
         for node in nodes:
             executor.add_node(node)
         spinner = SliceSpinner(executor)
-        spinner.spin_until(lambda: stop)
+        spinner.spin_until(lambda: stop or failed(nodes) is not None)
+        failure = failed(nodes)
+        if failure is not None:
+            print(f"{name}: {failure}", file=sys.stderr)
+            return 1
         return 0
     finally:
         for node in nodes:
