@@ -331,7 +331,8 @@ def run_peer(seconds: float) -> None:
     rclpy.try_shutdown()
 
 
-def bench_node(seconds: float, loop: str = "slices", control_loop: str = "auto") -> None:
+def bench_node(seconds: float, loop: str = "slices", control_loop: str = "auto",
+               thread_priority: int = 0) -> None:
     """The controller node at 500 Hz in this process (module docstring, 3.), spun in 0.1 s
     slices as ``run_nodes`` (``loop="slices"``) or with one ``spin_once`` per callback, its
     cycle run by its own thread or an executor timer (``control_loop``; "auto" is the node's
@@ -362,6 +363,8 @@ def bench_node(seconds: float, loop: str = "slices", control_loop: str = "auto")
     overrides: list[Parameter[Any]] = [Parameter("rate_hz", value=500.0)]
     if control_loop != "auto":
         overrides.append(Parameter("control_loop", value=control_loop))
+    if thread_priority:
+        overrides.append(Parameter("thread_priority", value=thread_priority))
     node = TimedNode(context=context, parameter_overrides=overrides)
     mode = getattr(node, "control_loop", "timer")
     peer = subprocess.Popen([sys.executable, __file__, "--peer", str(seconds + 70.0)])
@@ -401,7 +404,8 @@ def bench_node(seconds: float, loop: str = "slices", control_loop: str = "auto")
     jitter = np.abs(periods - 2.0)
     kind = os.environ.get(EXECUTOR_ENV) or EXECUTORS[0]
     per_period = 2e-3 * 1e6  # µs of CPU per 2 ms period per unit of "share of a core"
-    print(f"\nnode at 500 Hz over {seconds:.0f} s (control_loop '{mode}', executor '{kind}', "
+    print(f"\nnode at 500 Hz over {seconds:.0f} s (control_loop '{mode}', thread_priority "
+          f"{thread_priority}, executor '{kind}', "
           f"loop '{loop}', inputs "
           f"from a peer process): {len(periods)} periods, median {np.median(periods):.3f} ms, "
           f"jitter p99 {np.percentile(jitter, 99):.3f} ms, max {np.max(periods):.3f} ms; control "
@@ -423,6 +427,8 @@ def main() -> None:
                         help="how the node part drives the executor (default: as run_nodes)")
     parser.add_argument("--control-loop", choices=("auto", "thread", "timer"), default="auto",
                         help="the node's control_loop (default: its own default, thread)")
+    parser.add_argument("--thread-priority", type=int, default=0,
+                        help="the node's thread_priority (SCHED_FIFO 1–99; default 0: off)")
     parser.add_argument("--peer", type=float, default=None, help=argparse.SUPPRESS)
     args = parser.parse_args()
     print(load_line())
@@ -430,7 +436,7 @@ def main() -> None:
         run_peer(args.peer)
         return
     if args.node_only:
-        bench_node(args.node_seconds, args.loop, args.control_loop)
+        bench_node(args.node_seconds, args.loop, args.control_loop, args.thread_priority)
         return
     cases = controller_cases(args.repeats)
     cases.update(mink_cases())
@@ -441,7 +447,7 @@ def main() -> None:
     for name, result in results.items():
         row(name, result)
     if not args.skip_node:
-        bench_node(args.node_seconds, args.loop, args.control_loop)
+        bench_node(args.node_seconds, args.loop, args.control_loop, args.thread_priority)
 
 
 if __name__ == "__main__":

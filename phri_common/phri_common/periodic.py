@@ -13,9 +13,22 @@ running a burst of late cycles back to back.
 
 from __future__ import annotations
 
+import os
 import threading
 import time
 from collections.abc import Callable
+
+PRIORITY_RANGE = (0, 99)
+"""``priority`` of :class:`PeriodicThread`: 0 = the normal scheduler; 1–99 = SCHED_FIFO."""
+
+
+def set_fifo_priority(priority: int) -> None:
+    """Put the calling thread under SCHED_FIFO at ``priority`` (1–99; Linux).
+
+    Raises:
+        PermissionError: the process may not (needs CAP_SYS_NICE or an ``rtprio`` limit).
+    """
+    os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
 
 
 def next_deadline(deadline: float, now: float, period: float) -> tuple[float, int]:
@@ -37,8 +50,11 @@ class PeriodicThread:
     """Calls ``cycle()`` every ``period`` seconds in a daemon thread until :meth:`stop`.
 
     ``cycle`` must not raise: an exception escaping it ends the loop after ``on_error(err)``
-    was called (the owner makes the robot safe there). ``clock`` [s] and ``sleep`` are the
-    monotonic clock and sleep (tests replace them).
+    was called (the owner makes the robot safe there). ``priority`` > 0 asks for SCHED_FIFO at
+    that priority (as ros2_control's ``thread_priority``); when the system refuses, the loop
+    runs under the normal scheduler and :attr:`priority_error` says why. ``clock`` [s],
+    ``sleep`` and ``set_priority`` are the monotonic clock, sleep and
+    :func:`set_fifo_priority` (tests replace them).
     """
 
     def __init__(
@@ -48,11 +64,21 @@ class PeriodicThread:
         on_error: Callable[[BaseException], None],
         *,
         name: str = "periodic",
+        priority: int = 0,
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
+        set_priority: Callable[[int], None] = set_fifo_priority,
     ) -> None:
         if not period > 0.0:
             raise ValueError(f"period must be > 0 s, got {period!r}")
+        if not PRIORITY_RANGE[0] <= priority <= PRIORITY_RANGE[1]:
+            raise ValueError(f"priority must be in [{PRIORITY_RANGE[0]}, {PRIORITY_RANGE[1]}], "
+                             f"got {priority!r}")
+        self.priority = priority
+        self._set_priority = set_priority
+        self._started = threading.Event()
+        self.priority_error: str | None = None
+        """Why SCHED_FIFO was refused (None: not asked for, or granted)."""
         self.period = period
         self._cycle, self._on_error = cycle, on_error
         self._clock, self._sleep = clock, sleep
@@ -66,8 +92,10 @@ class PeriodicThread:
         """What ended the loop, if a cycle raised."""
 
     def start(self) -> None:
-        """Start the thread; the first cycle runs one period from now."""
+        """Start the thread (and wait until its priority is settled); the first cycle runs one
+        period later."""
         self._thread.start()
+        self._started.wait(1.0)
 
     def stop(self, timeout: float = 1.0) -> bool:
         """Ask the loop to end after its current cycle and wait up to ``timeout`` [s] for it;
@@ -83,6 +111,12 @@ class PeriodicThread:
         return self._thread.is_alive()
 
     def _run(self) -> None:
+        if self.priority > 0:
+            try:
+                self._set_priority(self.priority)
+            except (PermissionError, OSError) as err:
+                self.priority_error = f"SCHED_FIFO priority {self.priority} refused: {err}"
+        self._started.set()
         deadline = self._clock()
         while not self._stop.is_set():
             deadline, skipped = next_deadline(deadline, self._clock(), self.period)

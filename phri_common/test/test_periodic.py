@@ -111,3 +111,27 @@ def test_stop_ends_a_real_time_loop_promptly() -> None:
 def test_bad_period_is_refused_naming_it() -> None:
     with pytest.raises(ValueError, match="period must be > 0 s, got -1"):
         PeriodicThread(-1.0, lambda: None, lambda err: None)
+
+
+def test_a_refused_priority_is_reported_and_the_loop_still_runs() -> None:
+    def refuse(priority: int) -> None:
+        raise PermissionError(1, "Operation not permitted")
+
+    asked: list[int] = []
+    ran = threading.Event()
+    refused = PeriodicThread(0.002, ran.set, lambda err: None, priority=40, set_priority=refuse)
+    refused.start()
+    assert refused.priority_error is not None and "priority 40 refused" in refused.priority_error
+    assert ran.wait(2.0)
+    refused.stop()
+    granted = PeriodicThread(0.002, lambda: None, lambda err: None, priority=10,
+                             set_priority=asked.append)
+    granted.start()
+    granted.stop()
+    assert asked == [10] and granted.priority_error is None
+    normal = PeriodicThread(0.002, lambda: None, lambda err: None, set_priority=asked.append)
+    normal.start()
+    normal.stop()
+    assert asked == [10]  # priority 0: the scheduler is left alone
+    with pytest.raises(ValueError, match=r"priority must be in \[0, 99\], got 100"):
+        PeriodicThread(0.002, lambda: None, lambda err: None, priority=100)

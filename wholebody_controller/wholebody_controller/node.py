@@ -180,6 +180,9 @@ class WholeBodyControllerNode(Node):
         self._create_interfaces()
         if self.loop is not None:
             self.loop.start()
+            if self.loop.priority_error is not None:
+                self.get_logger().warning(f"thread_priority: {self.loop.priority_error}; the "
+                                          "control thread runs under the normal scheduler")
 
     def _create_interfaces(self) -> None:
         """Publishers, subscriptions, services and timers (see the module docstring)."""
@@ -219,7 +222,8 @@ class WholeBodyControllerNode(Node):
         period = 1.0 / float(self.params["rate_hz"])
         if self.control_loop == "thread":
             self.loop = PeriodicThread(period, self.run_cycle, self._loop_failed,
-                                       name=f"{self.get_name()} control")
+                                       name=f"{self.get_name()} control",
+                                       priority=int(self.params["thread_priority"]))
         else:
             # timer_callback: the executor inspects the callback's signature at every call.
             self.timer = self.create_timer(period, timer_callback(lambda: self.run_cycle()))

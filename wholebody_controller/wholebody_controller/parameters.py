@@ -66,6 +66,9 @@ GLOBAL_PARAMS: list[ParamSpec] = [
               "thread at absolute deadlines, inputs taken at each cycle), timer (an executor "
               "timer, inputs by callbacks; follows /clock), auto (timer under use_sim_time, "
               "else thread)", read_only=True),
+    ParamSpec("thread_priority", 0, "control_loop thread: 0 = the normal scheduler, 1–99 = "
+              "SCHED_FIFO at that priority (needs an rtprio limit or CAP_SYS_NICE; refused → "
+              "warning, normal scheduler)", "-", 0, 99, read_only=True),
     ParamSpec("k_eta", paper.K_ETA, "track-force gain k_η of (12)", "N/m", 0.0, 1e5),
     ParamSpec("b", paper.B, "priority shape b of (15)", "s²/m²", 0.0, 1e6),
     ParamSpec("k_p", paper.K_P, "task-space gain K_p of (19)", "1/s", 0.0, 1000.0),
