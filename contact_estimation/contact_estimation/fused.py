@@ -234,17 +234,20 @@ def take_state(forces: NDArray[np.floating], stored: NDArray[np.float64],
     return norm2, unchanged
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, fastmath={"reassoc"})
 def table_geometry_total(table: NDArray[np.floating]) -> float:  # pragma: no cover
     """Σ of a taxel table's positions [m], normals and (8 columns) weights: every column but
-    the force (column 6); finite when every element is (see :func:`geometry_total`)."""
+    the force (column 6), in any order (``reassoc``: vectorised; NaN and Inf still
+    propagate); finite when every element is (see :func:`geometry_total`)."""
     total = 0.0
-    weighted = table.shape[1] > 7
-    for j in range(table.shape[0]):
-        total += table[j, 0] + table[j, 1] + table[j, 2]
-        total += table[j, 3] + table[j, 4] + table[j, 5]
-        if weighted:
-            total += table[j, 7]
+    if table.shape[1] > 7:
+        for j in range(table.shape[0]):
+            total += (table[j, 0] + table[j, 1] + table[j, 2] + table[j, 3] + table[j, 4]
+                      + table[j, 5] + table[j, 7])
+    else:
+        for j in range(table.shape[0]):
+            total += (table[j, 0] + table[j, 1] + table[j, 2] + table[j, 3] + table[j, 4]
+                      + table[j, 5])
     return total
 
 
