@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import time
 from collections.abc import Callable
+from typing import Generic, TypeVar
 
 import numpy as np
 from rclpy.serialization import serialize_message
@@ -84,14 +85,17 @@ def main() -> None:
     for n in (2_000, 10_000):
         three_links(n, config, args, rng)
 
+T = TypeVar("T")
 
-class Frames:
-    """A cycle of force frames [N] with increasing stamps [ns] (2 ms apart, as at 500 Hz)."""
 
-    def __init__(self, frames: list[np.ndarray]) -> None:
+class Frames(Generic[T]):
+    """A cycle of frames (force arrays [N], messages or their bytes) with increasing stamps [ns]
+    (2 ms apart, as at 500 Hz)."""
+
+    def __init__(self, frames: list[T]) -> None:
         self.frames, self.k = frames, 0
 
-    def next(self) -> tuple[np.ndarray, int]:
+    def next(self) -> tuple[T, int]:
         self.k += 1
         return self.frames[self.k % len(self.frames)], 2_000_000 * self.k
 
