@@ -286,7 +286,12 @@ def warm_up() -> None:
     out, counts = np.zeros((1, STATE_WIDTH)), np.zeros(1, dtype=np.int64)
     link_states(table, groups, limit, 0, 1, out, counts)
     for forces in (np.ones(2), np.ones(2, dtype=np.float32), np.ones((2, 8), np.float32)[:, 6]):
-        take_state(forces, stored, rows, 0, 0.0, 1.0e6, table, 0, groups, limit, 0, out, counts)
+        # Writable, and read-only as a TaxelArray's (a composed driver's, a decoded message's).
+        frozen = forces.copy() if forces.flags.c_contiguous else forces[:]
+        frozen.flags.writeable = False
+        for frame in (forces, frozen):
+            take_state(frame, stored, rows, 0, 0.0, 1.0e6, table, 0, groups, limit, 0, out,
+                       counts)
     for columns in (7, 8):
         frame = np.ones((2, columns), np.float32)
         frame.flags.writeable = False  # a decoded message's table is read-only
