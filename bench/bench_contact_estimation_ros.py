@@ -2,8 +2,11 @@
 
 Starts ``contact_estimation_node`` as its own process and a publisher process that sends three
 taxel arrays at the skin rate (stamped with the publish time); this process subscribes to the
-three contact-state topics. Prints the received rate per link, drops, latency from publish to
-reception of the contact state (median / p99) and the node's CPU use.
+three contact-state topics (best effort, as the controller reads them). Prints the received
+rate per link, drops, latency from publish to reception of the contact state (median / p99) and
+the node's CPU use: in all, per contact state delivered and per state for each of its threads
+(``/proc/<pid>/task``: the executor thread is named after the node's executable, ``dds.*`` are
+Fast DDS's; a thread that used no CPU is left out).
 
 Run: ``.venv/bin/python bench/bench_contact_estimation_ros.py [--seconds 10] [--taxels 2000]``
 """
