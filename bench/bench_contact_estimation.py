@@ -6,7 +6,9 @@ per-control-step work on 3 links: new forces for every patch + one batched estim
 with the numba kernel the per-patch sums; ``estimate``: the states), the same step with no taxel
 over σ_t (an idle skin), the per-message path on each PointCloud2 (decode + geometry
 comparison + forces + estimate), the node's usual per-message path (the geometry comparison only
-every ``geometry_check_interval`` frames; the refusal checks on every frame), and the refusal
+every ``geometry_check_interval`` frames; the refusal checks on every frame), the node's path
+from a message's serialized bytes (``taxel_table_from_cdr`` + ``update_table`` + ``contact_to_cdr``:
+what it runs per message since it reads the bytes in place), and the refusal
 checks alone (NaN/Inf positions, normals, forces and the ``max_taxel_force`` bound), so their
 share of the per-message cost comes from the same run. The contact covers a realistic ~10 % of
 each patch (a forearm against a waist) and slides by 3 taxels per frame, so no frame repeats the
@@ -21,8 +23,10 @@ from __future__ import annotations
 import argparse
 import time
 from collections.abc import Callable
+from typing import Generic, TypeVar
 
 import numpy as np
+from rclpy.serialization import serialize_message
 
 from contact_estimation.estimator import (
     KERNELS,
@@ -31,8 +35,10 @@ from contact_estimation.estimator import (
     check_forces,
     check_geometry_values,
 )
+from phri_common.contact_cdr import contact_to_cdr
 from phri_common.procstat import load_line
 from phri_common.taxels import TaxelCloudEncoder, msg_to_taxels
+from phri_common.taxels_cdr import taxel_table_from_cdr
 from phri_description.description import SKIN_LINKS
 from skin_driver.layout import cylinder_taxels
 from skin_driver.sim_board import pressed_block
@@ -79,14 +85,17 @@ def main() -> None:
     for n in (2_000, 10_000):
         three_links(n, config, args, rng)
 
+T = TypeVar("T")
 
-class Frames:
-    """A cycle of force frames [N] with increasing stamps [ns] (2 ms apart, as at 500 Hz)."""
 
-    def __init__(self, frames: list[np.ndarray]) -> None:
+class Frames(Generic[T]):
+    """A cycle of frames (force arrays [N], messages or their bytes) with increasing stamps [ns]
+    (2 ms apart, as at 500 Hz)."""
+
+    def __init__(self, frames: list[T]) -> None:
         self.frames, self.k = frames, 0
 
-    def next(self) -> tuple[np.ndarray, int]:
+    def next(self) -> tuple[T, int]:
         self.k += 1
         return self.frames[self.k % len(self.frames)], 2_000_000 * self.k
 
@@ -134,6 +143,15 @@ def three_links(n: int, config: EstimatorConfig, args: argparse.Namespace,
         for patch, cycle in msgs:
             est.update(patch, msg_to_taxels(cycle.next()[0]), check_geometry=False)
 
+    wire = [(patch, Frames([serialize_message(m) for m in cycle.frames])) for patch, cycle in msgs]
+
+    def from_bytes(est: ContactEstimator = est, wire: list = wire) -> None:
+        for k, (patch, cycle) in enumerate(wire):
+            frame = taxel_table_from_cdr(cycle.next()[0])
+            assert frame is not None
+            contact_to_cdr(est.update_table(patch, frame[2], 2_000_000 * cycle.k + k,
+                                            check_geometry=False))
+
     decoded = [msg_to_taxels(cycle.frames[0]) for _, cycle in msgs]
 
     def checks_only(frames: list = decoded, limit: float = config.max_taxel_force) -> None:
@@ -148,6 +166,7 @@ def three_links(n: int, config: EstimatorConfig, args: argparse.Namespace,
         ("control step, idle skin", idle_step),
         ("per message ×3", from_messages),
         ("node path ×3", node_path),
+        ("node, serialized ×3", from_bytes),
         ("refusal checks ×3", checks_only),
     ]
     for label, fn in rows:

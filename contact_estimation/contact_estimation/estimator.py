@@ -487,8 +487,66 @@ class ContactEstimator:
             a is not b for a, b in zip(geometry, known_objects, strict=True)
         ):
             self._take_geometry(patch, taxels, check_geometry)
-        self._take_forces(patch, taxels.forces, self._slots[patch], taxels.stamp_ns)
+        return self._take_state(patch, link, taxels.forces, taxels.stamp_ns)
+
+    def update_table(self, patch: str, table: FloatArray, stamp_ns: int,
+                     check_geometry: bool = True) -> ContactState:
+        """:meth:`update` for a frame given as phri's taxel table: a read-only (N, 7) or (N, 8)
+        float array, columns x, y, z [m], normal x, y, z, force [N] (, weight ω) (the layout
+        of :mod:`phri_common.taxels`; a decoded message's bytes viewed in place).
+
+        Same states and the same refusals as :meth:`update` on the table's columns; with the
+        numba kernel a frame of a patch whose geometry is known (same size, same weighting)
+        and ``check_geometry=False`` takes one compiled pass (:func:`fused.take_table`: the
+        NaN/Inf test of the geometry, the range and stuck tests of the forces, the sums, the
+        link's state); every other frame, and every frame that pass flags, goes through
+        :meth:`update`, which takes the geometry or names what is wrong.
+
+        Raises:
+            UnknownPatchError, InvalidTaxelData: as :meth:`update`.
+        """
+        if table.ndim != 2 or table.shape[1] not in (7, 8):
+            raise InvalidTaxelData(f"patch {patch!r}: a taxel table has shape (N, 7) or "
+                                   f"(N, 8), got {table.shape}")
+        weighted = table.shape[1] == 8
+        known = self._geometry.get(patch)
+        if (not check_geometry and self._numba and known is not None
+                and known[0].shape[0] == table.shape[0] and (known[2] is not None) == weighted):
+            c0, _, row = self._slots[patch]
+            link = self.patch_links[patch]
+            i = self._link_index[link]
+            out = np.empty((1, fused.STATE_WIDTH))
+            total, norm2, unchanged = fused.take_table(
+                table, self._forces, self._rows_t, c0, self.config.force_threshold,
+                self._limit2, self._patch_table, row, self._groups, self._limit, i, out,
+                self._counts)
+            if math.isfinite(total) and norm2 <= self._limit2:
+                self._stuck.check(patch, norm2, table[:, 6], None, stamp_ns, unchanged)
+                self._stamps[patch] = stamp_ns
+                return self._link_state(i, out)
+        taxels = TaxelArray(table[:, 0:3], table[:, 3:6], table[:, 6],
+                            table[:, 7] if weighted else None, self.patch_links.get(patch, ""),
+                            stamp_ns)
+        return self.update(patch, taxels, check_geometry)
+
+    def _take_state(self, patch: str, link: str, forces: FloatArray,
+                    stamp_ns: int) -> ContactState:
+        """Take a frame's forces [N] (:meth:`_take_forces`) and return ``link``'s state; with
+        the numba kernel in one compiled call (:func:`fused.take_state`) when they are within
+        the range (any other frame takes the checked path, which names what is wrong)."""
         i = self._link_index[link]
+        slot = self._slots[patch]
+        if self._numba:
+            out = np.empty((1, fused.STATE_WIDTH))
+            norm2, unchanged = fused.take_state(
+                forces, self._forces, self._rows_t, slot[0], self.config.force_threshold,
+                self._limit2, self._patch_table, slot[2], self._groups, self._limit, i, out,
+                self._counts)
+            if norm2 <= self._limit2:
+                self._stuck.check(patch, norm2, forces, None, stamp_ns, unchanged)
+                self._stamps[patch] = stamp_ns
+                return self._link_state(i, out)
+        self._take_forces(patch, forces, slot, stamp_ns)
         return self._states(i, i + 1)[link]
 
     def _take_geometry(self, patch: str, taxels: TaxelArray, check_geometry: bool) -> None:
@@ -556,19 +614,22 @@ class ContactEstimator:
             sums, groups = self._link_sums_numpy(), self._link_rows
         table = np.empty((last - first, fused.STATE_WIDTH))
         fused.link_states(sums, groups, self._limit, first, last, table, self._counts)
-        table.flags.writeable = False  # the states' vectors are read-only views of it
-        counts = self._counts.tolist()
+        return {self._link_items[i][0]: self._link_state(i, table, i - first)
+                for i in range(first, last)}
+
+    def _link_state(self, i: int, table: NDArray[np.float64], k: int = 0) -> ContactState:
+        """Link ``i``'s state from row ``k`` of a state table just written by
+        :func:`fused.link_states` (taxel count in ``self._counts[i]``); freezes ``table``:
+        the state's vectors are read-only views of it, so it must not be reused."""
+        table.flags.writeable = False
+        link, patches = self._link_items[i]
         stamps = self._stamps
-        states: dict[str, ContactState] = {}
-        for i in range(first, last):
-            link, patches = self._link_items[i]
-            stamp = stamps[patches[0]] if len(patches) == 1 else max(map(stamps.__getitem__,
-                                                                           patches))
-            count = counts[i]
-            states[link] = (ContactState.from_frozen_row(link, stamp, True, table[i - first],
-                                                         count)
-                            if count else ContactState.no_contact(link, stamp))
-        return states
+        stamp = stamps[patches[0]] if len(patches) == 1 else max(map(stamps.__getitem__,
+                                                                       patches))
+        count = int(self._counts[i])
+        if count:
+            return ContactState.from_frozen_row(link, stamp, True, table[k], count)
+        return ContactState.no_contact(link, stamp)
 
 
 def estimate_contact(

@@ -11,6 +11,10 @@ tests' oracle, ``test_fused.py``), computed when a frame arrives instead of at e
 * :func:`patch_sums`: for every taxel with force F > σ_t [N] it adds the geometry row (module
   docstring of :mod:`contact_estimation.estimator`) ``[p, −ω n, −ω (p × n)(, ω p, ω)]``, the
   force-dependent rows multiplied by F, and widens the patch's box of positions p [m].
+* :func:`take_state` (per patch frame, from ``update``): :func:`take_frame`, then the state row
+  of the frame's link (:func:`link_states`), in one call; :func:`take_table` (from
+  ``update_table``) first sums the frame's geometry columns (the NaN/Inf test of
+  :func:`geometry_total`), reading a decoded message's (N, 7 or 8) float32 table in place.
 * :func:`link_states` (per estimate): adds the rows of each link's patches (the sums over the
   union of its patches) and turns them into the state row: centre (5), force (9a), torque about
   the centre (9b) with its per-axis limit, region Ω_i (Sec. IV-B). Both kernels use it: the
@@ -214,6 +218,57 @@ def link_states(sums: NDArray[np.float64], groups: NDArray[np.int64],
         counts[i] = count
 
 
+@njit(cache=True, nogil=True)
+def take_state(forces: NDArray[np.floating], stored: NDArray[np.float64],
+               rows_t: NDArray[np.float64], c0: int, threshold: float, limit2: float,
+               sums: NDArray[np.float64], row: int, groups: NDArray[np.int64],
+               limit: NDArray[np.float64], link: int, out: NDArray[np.float64],
+               counts: NDArray[np.int64]) -> tuple[float, bool]:  # pragma: no cover
+    """:func:`take_frame` of a patch frame's forces F [N], then, when ‖F‖² ≤ ``limit2``, the
+    state row of link ``link`` (:func:`link_states`) into ``out[0]`` and ``counts[link]``.
+    Returns ``(‖F‖² [N²], F == stored frame)``; ``out`` is not written when ‖F‖² > ``limit2``.
+    """
+    norm2, unchanged = take_frame(forces, stored, rows_t, c0, threshold, limit2, sums, row)
+    if norm2 <= limit2:
+        link_states(sums, groups, limit, link, link + 1, out, counts)
+    return norm2, unchanged
+
+
+@njit(cache=True, nogil=True, fastmath={"reassoc"})
+def table_geometry_total(table: NDArray[np.floating]) -> float:  # pragma: no cover
+    """Σ of a taxel table's positions [m], normals and (8 columns) weights: every column but
+    the force (column 6), in any order (``reassoc``: vectorised; NaN and Inf still
+    propagate); finite when every element is (see :func:`geometry_total`)."""
+    total = 0.0
+    if table.shape[1] > 7:
+        for j in range(table.shape[0]):
+            total += (table[j, 0] + table[j, 1] + table[j, 2] + table[j, 3] + table[j, 4]
+                      + table[j, 5] + table[j, 7])
+    else:
+        for j in range(table.shape[0]):
+            total += (table[j, 0] + table[j, 1] + table[j, 2] + table[j, 3] + table[j, 4]
+                      + table[j, 5])
+    return total
+
+
+@njit(cache=True, nogil=True)
+def take_table(table: NDArray[np.floating], stored: NDArray[np.float64],
+               rows_t: NDArray[np.float64], c0: int, threshold: float, limit2: float,
+               sums: NDArray[np.float64], row: int, groups: NDArray[np.int64],
+               limit: NDArray[np.float64], link: int, out: NDArray[np.float64],
+               counts: NDArray[np.int64]) -> tuple[float, float, bool]:  # pragma: no cover
+    """A frame as phri's taxel table (N, 7 or 8): columns x, y, z [m], normal x, y, z, force F
+    [N] (, weight ω). Returns ``(Σ geometry, ‖F‖² [N²], F == stored frame)``: the geometry sum
+    (:func:`table_geometry_total`) first; only when it is finite :func:`take_state` on column
+    6 (else ``(Σ, nan, False)`` and nothing written)."""
+    total = table_geometry_total(table)
+    if not np.isfinite(total):
+        return total, np.nan, False
+    norm2, unchanged = take_state(table[:, 6], stored, rows_t, c0, threshold, limit2, sums,
+                                  row, groups, limit, link, out, counts)
+    return total, norm2, unchanged
+
+
 def warm_up() -> None:
     """Compile (first run) or load (later runs) the kernels ahead of the first frame, for
     float64 and float32 forces, contiguous or a column of a decoded message's (N, 7 or 8)
@@ -227,5 +282,17 @@ def warm_up() -> None:
     all_patch_sums(stored, rows, np.array([0, 2], dtype=np.int64), 0.0, table)
     for matrix in (np.ones((2, 3)), np.ones((2, 8), np.float32)[:, 0:3]):
         geometry_total(matrix, matrix)
-    link_states(table, np.array([0, 1], dtype=np.int64), np.ones(3), 0, 1,
-                np.zeros((1, STATE_WIDTH)), np.zeros(1, dtype=np.int64))
+    groups, limit = np.array([0, 1], dtype=np.int64), np.ones(3)
+    out, counts = np.zeros((1, STATE_WIDTH)), np.zeros(1, dtype=np.int64)
+    link_states(table, groups, limit, 0, 1, out, counts)
+    for forces in (np.ones(2), np.ones(2, dtype=np.float32), np.ones((2, 8), np.float32)[:, 6]):
+        # Writable, and read-only as a TaxelArray's (a composed driver's, a decoded message's).
+        frozen = forces.copy() if forces.flags.c_contiguous else forces[:]
+        frozen.flags.writeable = False
+        for frame in (forces, frozen):
+            take_state(frame, stored, rows, 0, 0.0, 1.0e6, table, 0, groups, limit, 0, out,
+                       counts)
+    for columns in (7, 8):
+        frame = np.ones((2, columns), np.float32)
+        frame.flags.writeable = False  # a decoded message's table is read-only
+        take_table(frame, stored, rows, 0, 0.0, 1.0e6, table, 0, groups, limit, 0, out, counts)

@@ -46,11 +46,11 @@ from contact_estimation.estimator import (
 from contact_estimation.markers import MarkerScales, MarkerThrottle, contact_markers
 from phri_common.contact_cdr import contact_to_cdr
 from phri_common.params import ParamSpec, ParamValue
-from phri_common.records import TaxelArray
+from phri_common.records import ContactState, TaxelArray
 from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
 from phri_common.taxels import TaxelMessageError, msg_to_taxels
-from phri_common.taxels_cdr import taxels_from_cdr
+from phri_common.taxels_cdr import taxel_table_from_cdr
 from phri_description.description import SKIN_LINKS, SKIN_PATCHES
 
 DEFAULT_PATCHES = list(SKIN_PATCHES)
@@ -95,7 +95,14 @@ PARAMS: list[ParamSpec] = [
               low=0.05, high=3600.0),
 ]
 
-SENSOR_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+TAXEL_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+"""skin/<patch>/taxels: best effort (sensor data; matches the drivers' reliable writers). A
+reliable reader acknowledges every message: ≈ 30 µs of this node's CPU per frame at 500 Hz
+(bench/bench_contact_estimation_ros.py), for a repair that only a lost frame would need and
+that would arrive after the next frame anyway."""
+STATE_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+"""contacts/<link>: reliable, for a reliable reader (a recorder); the controller reads them best
+effort."""
 
 
 def config_from_values(values: dict[str, ParamValue]) -> EstimatorConfig:
@@ -145,12 +152,14 @@ class ContactEstimationNode(Node):
         self._lock = threading.Lock()
         self._estimator = ContactEstimator(self._patch_links, config_from_values(self._values))
         self._scales = self._marker_scales(self._values)
+        self._publish_markers = bool(self._values["publish_markers"])
+        self._geometry_interval = int(self._values["geometry_check_interval"])
         self._marker_throttle = MarkerThrottle(float(self._values["marker_rate_hz"]))
         self._received = dict.fromkeys(patches, 0)
         self._refused = dict.fromkeys(patches, 0)
         self._last_error: dict[str, str] = dict.fromkeys(patches, "")
         self._state_pubs = {
-            link: self.create_publisher(PointCloud2, f"contacts/{link}", SENSOR_QOS)
+            link: self.create_publisher(PointCloud2, f"contacts/{link}", STATE_QOS)
             for link in self._estimator.links
         }
         self._marker_pub = self.create_publisher(MarkerArray, "contacts/markers", 10)
@@ -160,7 +169,7 @@ class ContactEstimationNode(Node):
         self._subs = [
             self.create_subscription(
                 PointCloud2, f"skin/{patch}/taxels", partial(self._on_taxel_bytes, patch),
-                SENSOR_QOS, raw=True,
+                TAXEL_QOS, raw=True,
             )
             for patch in patches
             if self._values["subscribe_taxels"]
@@ -184,6 +193,8 @@ class ContactEstimationNode(Node):
         with self._lock:
             self._estimator.reconfigure(config)
         self._scales = self._marker_scales(values)
+        self._publish_markers = bool(values["publish_markers"])
+        self._geometry_interval = int(values["geometry_check_interval"])
         period = float(values["diagnostics_period"])
         if period != float(self._values["diagnostics_period"]):
             self._diag_timer.timer_period_ns = int(period * 1e9)
@@ -191,17 +202,20 @@ class ContactEstimationNode(Node):
         self._values = values
 
     def _on_taxel_bytes(self, patch: str, data: bytes) -> None:
-        try:
-            taxels = taxels_from_cdr(data)
-        except ValueError as err:  # e.g. an empty cloud, refused as msg_to_taxels would
-            with self._lock:
-                self._received[patch] += 1
-                self._refuse(patch, err)
-            return
-        if taxels is None:  # not phri's own layout: the reference decoder
+        frame = taxel_table_from_cdr(data)
+        if frame is None:  # not phri's own layout: the reference decoder
             self._on_taxels(patch, deserialize_message(data, PointCloud2))
-        else:
-            self.on_frame(patch, taxels)
+            return
+        frame_id, stamp_ns, table = frame
+        with self._lock:
+            check = self._count_frame(patch)
+            try:
+                self._check_frame_id(patch, frame_id)
+                state = self._estimator.update_table(patch, table, stamp_ns, check)
+            except InvalidTaxelData as err:
+                self._refuse(patch, err)
+                return
+            self._publish(state)
 
     def _on_taxels(self, patch: str, msg: PointCloud2) -> None:
         try:
@@ -216,31 +230,39 @@ class ContactEstimationNode(Node):
     def on_frame(self, patch: str, taxels: TaxelArray) -> None:
         """Estimate and publish from one frame of ``patch`` (thread-safe).
 
-        Called for every message on ``skin/<patch>/taxels``, and directly by a skin driver
+        Called for every message on ``skin/<patch>/taxels`` of another layout than phri's
+        own (whose bytes :meth:`_on_taxel_bytes` reads in place), and directly by a skin driver
         composed into the same process (``phri_bringup.skin_contact_node``), which skips the
         message round trip; refusals and diagnostics are the same either way.
         """
         with self._lock:
-            self._received[patch] += 1
-            link = self._patch_links[patch]
+            check = self._count_frame(patch)
             try:
-                if taxels.frame_id != link:
-                    raise InvalidTaxelData(
-                        f"frame_id {taxels.frame_id!r}, expected the patch's link {link!r}"
-                    )
-                interval = int(self._values["geometry_check_interval"])
-                check = self._received[patch] % interval == 1 or interval == 1
+                self._check_frame_id(patch, taxels.frame_id)
                 state = self._estimator.update(patch, taxels, check_geometry=check)
             except InvalidTaxelData as err:
                 self._refuse(patch, err)
                 return
-            # Serialized here (phri_common.contact_cdr): rclpy's conversion of the message's
-            # 17 PointField objects would cost several times more.
-            self._state_pubs[link].publish(contact_to_cdr(state))
-            if self._values["publish_markers"] and self._marker_throttle.due(state):
-                self._marker_pub.publish(
-                    MarkerArray(markers=contact_markers(state, self._scales))
-                )
+            self._publish(state)
+
+    def _count_frame(self, patch: str) -> bool:
+        """Count a frame of ``patch``; whether its geometry is to be compared with the known
+        one (every ``geometry_check_interval``-th frame, the first included)."""
+        count = self._received[patch] = self._received[patch] + 1
+        interval = self._geometry_interval
+        return interval == 1 or count % interval == 1
+
+    def _check_frame_id(self, patch: str, frame_id: str) -> None:
+        link = self._patch_links[patch]
+        if frame_id != link:
+            raise InvalidTaxelData(f"frame_id {frame_id!r}, expected the patch's link {link!r}")
+
+    def _publish(self, state: ContactState) -> None:
+        # Serialized here (phri_common.contact_cdr): rclpy's conversion of the message's
+        # 17 PointField objects would cost several times more.
+        self._state_pubs[state.link].publish(contact_to_cdr(state))
+        if self._publish_markers and self._marker_throttle.due(state):
+            self._marker_pub.publish(MarkerArray(markers=contact_markers(state, self._scales)))
 
     def _refuse(self, patch: str, err: Exception) -> None:
         self._refused[patch] += 1

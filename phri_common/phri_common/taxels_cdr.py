@@ -16,7 +16,7 @@ import numpy as np
 
 from phri_common.cloud import point_fields
 from phri_common.contact_cdr import Template, cloud_header, layout_template, matches
-from phri_common.records import TaxelArray
+from phri_common.records import FloatArray, TaxelArray
 from phri_common.taxels import _DTYPE, _DTYPE_WEIGHTED
 
 _WIDTH_OFFSET = 4
@@ -29,12 +29,11 @@ def _template(weighted: bool, width: int) -> Template:
     return Template(*layout_template(point_fields(dtype), dtype.itemsize, width))
 
 
-def taxels_from_cdr(data: bytes) -> TaxelArray | None:
-    """The taxel array in a serialized PointCloud2 of phri's own layout, else ``None``.
-
-    Raises:
-        ValueError: from :class:`TaxelArray` (an empty cloud), as msg_to_taxels.
-    """
+def taxel_table_from_cdr(data: bytes) -> tuple[str, int, FloatArray] | None:
+    """``(frame_id, stamp [ns], table)`` of a serialized PointCloud2 of phri's own layout,
+    else ``None``: ``table`` the (N, 7) or, with the weight column, (N, 8) float32 points
+    (x, y, z, normal_x, normal_y, normal_z, force (, weight)), a read-only view of ``data``
+    (what :meth:`contact_estimation.estimator.ContactEstimator.update_table` reads)."""
     header = cloud_header(data)
     if header is None or len(data) < header[2] + 8:
         return None
@@ -49,7 +48,21 @@ def taxels_from_cdr(data: bytes) -> TaxelArray | None:
                 return None
             table = np.frombuffer(data, dtype=np.float32, count=columns * width,
                                   offset=offset).reshape(width, columns)
-            return TaxelArray(positions=table[:, 0:3], normals=table[:, 3:6],
-                              forces=table[:, 6], weights=table[:, 7] if weighted else None,
-                              frame_id=frame_id, stamp_ns=stamp_ns)
+            return frame_id, stamp_ns, table
     return None
+
+
+def taxels_from_cdr(data: bytes) -> TaxelArray | None:
+    """The taxel array in a serialized PointCloud2 of phri's own layout, else ``None``
+    (:func:`taxel_table_from_cdr`'s columns as read-only views).
+
+    Raises:
+        ValueError: from :class:`TaxelArray` (an empty cloud), as msg_to_taxels.
+    """
+    frame = taxel_table_from_cdr(data)
+    if frame is None:
+        return None
+    frame_id, stamp_ns, table = frame
+    return TaxelArray(positions=table[:, 0:3], normals=table[:, 3:6], forces=table[:, 6],
+                      weights=table[:, 7] if table.shape[1] > 7 else None,
+                      frame_id=frame_id, stamp_ns=stamp_ns)
