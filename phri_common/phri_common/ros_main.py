@@ -54,6 +54,8 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.task import Future
 
+from phri_common.settle import settle
+
 EXECUTOR_ENV = "PHRI_EXECUTOR"
 """Environment variable that picks the executor of every phri process."""
 EXECUTORS = ("events", "single")
@@ -157,6 +159,10 @@ def run_nodes(
     """Create nodes, spin them until SIGINT/SIGTERM, destroy them (nodes send their zero command
     in ``destroy_node``) and return the process exit code.
 
+    Once the nodes exist, :func:`phri_common.settle.settle` moves start-up's objects out of
+    the garbage collector's way and fills the cache rclpy's logger looks callers up in (the
+    one-off pauses that cost the chain its dropped frames; README, "Drops").
+
     A ``ValueError`` while creating the executor or the nodes (e.g. a refused parameter) is
     printed with the node name and gives exit code 2 instead of a traceback.
     """
@@ -185,6 +191,7 @@ def run_nodes(
             return 2
         for node in nodes:
             executor.add_node(node)
+        settle()  # start-up's objects out of the collector's way, inspect's cache filled
         spinner = SliceSpinner(executor)
         spinner.spin_until(lambda: stop)
         return 0
