@@ -37,11 +37,18 @@ after every control cycle that published a command, (end time, stamp of each lin
 state used). Commands map to frames through those stamps. Nothing in the node's code changes.
 
 ``--composed HZ`` runs the drivers and the estimator in one process instead
-(``phri_bringup.skin_contact_node``: direct hand-off, taxel topics at HZ).
+(``phri_bringup.skin_contact_node``: direct hand-off, taxel topics at HZ), its estimator
+probed as well: every frame it took and every contact state it published, by stamp. The
+**by stamp** line then counts exactly, per link: frames sent, taken, published, published but
+never received by the controller (and the bursts they were lost in), received but never
+published. The **pauses** line gives each probed process's full (generation-2) garbage
+collections and rclpy log calls inside the window, and the controller's longest cycle: the
+whole-process pauses that lost frames before ``phri_common.settle`` (README, "Drops").
+``--save DIR`` keeps the raw records (.npz) for a closer look.
 
 Run: ``.venv/bin/python bench/bench_chain.py [--seconds 60] [--taxels 2000] [--boards 3]
-[--rate 500] [--executor events|single] [--composed 50] [--no-markers]``. Keep runs ≤ 2 min
-on a shared machine.
+[--rate 500] [--executor events|single] [--composed 50] [--no-markers] [--save DIR]``.
+Keep runs ≤ 2 min on a shared machine.
 """
 
 from __future__ import annotations
