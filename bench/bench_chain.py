@@ -126,6 +126,10 @@ PROBED_METHODS = ("take_contact", "tick", "destroy_node")
 ``test_bench_scripts.py`` checks they exist)."""
 
 
+PROBED_ESTIMATION_METHODS = ("on_frame", "destroy_node")
+"""The estimation node's methods the composed probe wraps (``test_bench_scripts.py``)."""
+
+
 def run_controller_probe(out: str, ros_args: Sequence[str]) -> int:
     """The controller node as deployed (``run_nodes``), with recording probes (module doc)."""
     from phri_common.ros_main import run_nodes
@@ -258,7 +262,7 @@ def run_composed_probe(out: str, argv: Sequence[str]) -> int:
     collections = _record_gc()
     logs = _record_logs()
 
-    class ProbedEstimation(ContactEstimationNode):
+    class ProbedEstimation(ContactEstimationNode):  # methods: PROBED_ESTIMATION_METHODS
         def __init__(self, **kwargs: Any) -> None:
             super().__init__(**kwargs)
             pubs = self._state_pubs
@@ -531,6 +535,13 @@ def print_stages(i: int, sent: np.ndarray, records: Any, window: tuple[int, int]
     print("    stages, frames/s: " + ", ".join(f"{k} {v:.1f}" for k, v in rates.items()))
 
 
+def lost_stamps(published: np.ndarray, received: np.ndarray) -> list[int]:
+    """Stamps of ``published`` (in publishing order) that are not among ``received``, which
+    may hold them in any order, late, or more than once."""
+    got = set(received.tolist())
+    return [s for s in published.tolist() if s not in got]
+
+
 def print_trace(i: int, sent: np.ndarray, records: Any, probe: Any,
                 window: tuple[int, int]) -> None:
     """Link i counted by stamp, exactly (``--composed``: the estimator is probed): frames the
@@ -543,8 +554,7 @@ def print_trace(i: int, sent: np.ndarray, records: Any, probe: Any,
     received = records["received"][records["received"][:, 0] == i]
     took = taken[(taken[:, 2] >= window[0]) & (taken[:, 2] < window[1])]
     pub = published[(published[:, 2] >= window[0]) & (published[:, 2] < window[1])]
-    got = set(received[:, 1].tolist())
-    lost = [s for s in pub[:, 1].tolist() if s not in got]
+    lost = lost_stamps(pub[:, 1], received[:, 1])
     pub_all = set(published[:, 1].tolist())
     extra = [s for s in received[:, 1].tolist()
              if s not in pub_all and window[0] <= s and s < window[1]]
