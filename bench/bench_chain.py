@@ -174,7 +174,8 @@ def run_controller_probe(out: str, ros_args: Sequence[str]) -> int:
                      slices=np.array(slices, dtype=np.int64).reshape(-1, 2),
                      ticks=np.array(ticks, dtype=np.int64).reshape(-1, 2),
                      gc=np.array(collections, dtype=np.int64).reshape(-1, 3),
-                     logs=np.array(logs, dtype=np.int64).reshape(-1, 2))
+                     logs=np.array(logs, dtype=np.int64).reshape(-1, 2),
+                     rejected=np.array(getattr(self, "rejected_inputs", -1)))
 
     return run_nodes(lambda: [ProbedController()], "bench_chain_controller",
                      ["bench_chain", "--ros-args", *ros_args])
@@ -589,7 +590,8 @@ def print_pauses(records: Any, probe: Any, window: tuple[int, int]) -> None:
         if rec is None or "gc" not in rec:
             continue
         full = inside(rec["gc"][rec["gc"][:, 2] == 2])
-        extra = f"; cycles: {longest(inside(rec['ticks']))}" if "ticks" in rec else ""
+        extra = (f"; cycles: {longest(inside(rec['ticks']))}; inputs refused (whole run): "
+                 f"{int(rec['rejected'])}") if "ticks" in rec else ""
         print(f"  pauses, {name}: full collections {longest(full)}; log calls "
               f"{longest(inside(rec['logs']))}{extra}")
 
