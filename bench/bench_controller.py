@@ -331,9 +331,12 @@ def run_peer(seconds: float) -> None:
     rclpy.try_shutdown()
 
 
-def bench_node(seconds: float, loop: str = "slices") -> None:
+def bench_node(seconds: float, loop: str = "slices", control_loop: str = "auto",
+               thread_priority: int = 0) -> None:
     """The controller node at 500 Hz in this process (module docstring, 3.), spun in 0.1 s
-    slices as ``run_nodes`` (``loop="slices"``) or with one ``spin_once`` per callback."""
+    slices as ``run_nodes`` (``loop="slices"``) or with one ``spin_once`` per callback, its
+    cycle run by its own thread or an executor timer (``control_loop``; "auto" is the node's
+    default, also on trees without the parameter)."""
     import rclpy
     from rclpy.parameter import Parameter
 
@@ -346,16 +349,24 @@ def bench_node(seconds: float, loop: str = "slices") -> None:
     context = rclpy.Context()
     rclpy.init(context=context, domain_id=domain)
     ticks: list[int] = []
-    busy: list[int] = []  # CPU time of each tick [ns] (this thread)
+    busy: list[int] = []  # CPU time of each tick [ns] (the ticking thread)
+    cycle_cpu: list[int] = []  # CPU time of the ticking thread at each tick's start [ns]
 
     class TimedNode(WholeBodyControllerNode):
         def tick(self) -> None:
             ticks.append(time.perf_counter_ns())
             t0 = time.thread_time_ns()
+            cycle_cpu.append(t0)
             super().tick()
             busy.append(time.thread_time_ns() - t0)
 
-    node = TimedNode(context=context, parameter_overrides=[Parameter("rate_hz", value=500.0)])
+    overrides: list[Parameter[Any]] = [Parameter("rate_hz", value=500.0)]
+    if control_loop != "auto":
+        overrides.append(Parameter("control_loop", value=control_loop))
+    if thread_priority:
+        overrides.append(Parameter("thread_priority", value=thread_priority))
+    node = TimedNode(context=context, parameter_overrides=overrides)
+    mode = getattr(node, "control_loop", "timer")
     peer = subprocess.Popen([sys.executable, __file__, "--peer", str(seconds + 70.0)])
     executor = make_executor(context=context)  # PHRI_EXECUTOR, as run_nodes
 
@@ -379,8 +390,11 @@ def bench_node(seconds: float, loop: str = "slices") -> None:
         spin()
     wall = time.monotonic() - wall0
     cpu, main = (time.process_time() - cpu0) / wall, (time.thread_time() - main0) / wall
-    periods = np.diff(np.array(ticks[start:])) / 1e6  # ms
-    tick_us = np.array(busy[start:]) / 1e3
+    end = len(ticks)
+    periods = np.diff(np.array(ticks[start:end])) / 1e6  # ms
+    # The control thread's CPU over the window (its thread_time at the first and last tick).
+    control = (cycle_cpu[end - 1] - cycle_cpu[start]) / 1e9 / wall if mode == "thread" else 0.0
+    tick_us = np.array(busy[start:end]) / 1e3
     good, zero = node.good_cycles - good0, node.zero_cycles - zero0
     peer.terminate()
     peer.wait(timeout=10)
@@ -390,13 +404,16 @@ def bench_node(seconds: float, loop: str = "slices") -> None:
     jitter = np.abs(periods - 2.0)
     kind = os.environ.get(EXECUTOR_ENV) or EXECUTORS[0]
     per_period = 2e-3 * 1e6  # µs of CPU per 2 ms period per unit of "share of a core"
-    print(f"\nnode at 500 Hz over {seconds:.0f} s (executor '{kind}', loop '{loop}', inputs "
+    print(f"\nnode at 500 Hz over {seconds:.0f} s (control_loop '{mode}', thread_priority "
+          f"{thread_priority}, executor '{kind}', "
+          f"loop '{loop}', inputs "
           f"from a peer process): {len(periods)} periods, median {np.median(periods):.3f} ms, "
           f"jitter p99 {np.percentile(jitter, 99):.3f} ms, max {np.max(periods):.3f} ms; control "
           f"cycles {good} good / {zero} zero; tick callback CPU median {np.median(tick_us):.0f} "
           f"µs, p99 {np.percentile(tick_us, 99):.0f} µs; process CPU {100 * cpu:.0f} % of one "
           f"core ({cpu * per_period:.0f} µs per period: executor thread {main * per_period:.0f}, "
-          f"other threads {(cpu - main) * per_period:.0f}; {1e6 * cpu * wall / len(periods):.0f} "
+          f"control thread {control * per_period:.0f}, DDS threads "
+          f"{(cpu - main - control) * per_period:.0f}; {1e6 * cpu * wall / len(periods):.0f} "
           "µs per tick run)")
 
 
@@ -408,6 +425,10 @@ def main() -> None:
     parser.add_argument("--node-only", action="store_true", help="only the node part (3.)")
     parser.add_argument("--loop", choices=("slices", "spin_once"), default="slices",
                         help="how the node part drives the executor (default: as run_nodes)")
+    parser.add_argument("--control-loop", choices=("auto", "thread", "timer"), default="auto",
+                        help="the node's control_loop (default: its own default, thread)")
+    parser.add_argument("--thread-priority", type=int, default=0,
+                        help="the node's thread_priority (SCHED_FIFO 1–99; default 0: off)")
     parser.add_argument("--peer", type=float, default=None, help=argparse.SUPPRESS)
     args = parser.parse_args()
     print(load_line())
@@ -415,7 +436,7 @@ def main() -> None:
         run_peer(args.peer)
         return
     if args.node_only:
-        bench_node(args.node_seconds, args.loop)
+        bench_node(args.node_seconds, args.loop, args.control_loop, args.thread_priority)
         return
     cases = controller_cases(args.repeats)
     cases.update(mink_cases())
@@ -426,7 +447,7 @@ def main() -> None:
     for name, result in results.items():
         row(name, result)
     if not args.skip_node:
-        bench_node(args.node_seconds, args.loop)
+        bench_node(args.node_seconds, args.loop, args.control_loop, args.thread_priority)
 
 
 if __name__ == "__main__":

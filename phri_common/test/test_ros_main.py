@@ -201,3 +201,40 @@ def test_run_nodes_stops_on_signal_while_overloaded(executor: str, sig: int) -> 
     out, err = signal_after_a_second(proc, sig)
     assert proc.returncode == 0, err[-2000:]
     assert "destroyed" in out
+
+
+FAILING_CHILD = textwrap.dedent("""
+    import sys, threading
+    import rclpy
+    from phri_common.ros_main import run_nodes
+
+    class Failing(rclpy.node.Node):
+        '''A node whose own thread fails after 0.3 s (as the controller's control thread can).'''
+        def __init__(self):
+            super().__init__("failing")
+            self.fatal_error = None
+            threading.Timer(0.3, self.fail).start()
+
+        def fail(self):
+            self.fatal_error = RuntimeError("control thread broke")
+
+        def destroy_node(self):
+            print("destroyed", flush=True)
+            super().destroy_node()
+
+    sys.exit(run_nodes(lambda: [Failing()], "failing_process"))
+""")
+
+
+def test_run_nodes_ends_with_exit_code_1_when_a_node_reports_a_fatal_error() -> None:
+    proc = subprocess.Popen([sys.executable, "-c", FAILING_CHILD], text=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        out, err = proc.communicate(timeout=30.0)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 1, err[-2000:]
+    assert "destroyed" in out  # the nodes were torn down (the controller's zero command)
+    assert "failing_process: failing: RuntimeError('control thread broke')" in err

@@ -93,9 +93,14 @@ class Harness:
         self.peer.destroy_node()
 
 
-@pytest.fixture
-def harness(ros_context: object) -> Iterator[Harness]:
-    h = Harness(ros_context)
+@pytest.fixture(params=["thread", "timer"])
+def harness(ros_context: object, request: pytest.FixtureRequest) -> Iterator[Harness]:
+    """The node on the wall clock with each control loop (module docstring of node.py)."""
+    node = WholeBodyControllerNode(
+        kinematics=FakeKinematics(), context=ros_context,
+        parameter_overrides=[Parameter("control_loop", value=request.param)])
+    assert node.control_loop == request.param
+    h = Harness(ros_context, node)
     yield h
     h.close()
 

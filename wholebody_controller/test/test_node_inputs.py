@@ -16,6 +16,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from nav_msgs.msg import Odometry
 from numpy.typing import NDArray
+from rclpy.parameter import Parameter
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray
@@ -41,8 +42,10 @@ class RecordingNode(WholeBodyControllerNode):
     def __init__(self, context: object) -> None:
         self.now_ns = 1_000_000_000
         self.commands: list[NDArray[np.float64]] = []
+        # The cycles are driven by hand: the executor timer mode (not spun) runs none itself.
         super().__init__(kinematics=FakeKinematics(), context=context,
-                         clock_ns=lambda: self.now_ns)
+                         clock_ns=lambda: self.now_ns,
+                         parameter_overrides=[Parameter("control_loop", value="timer")])
 
     def publish_command(self, command: NDArray[np.float64]) -> None:
         self.commands.append(np.array(command))

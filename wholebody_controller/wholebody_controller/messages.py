@@ -27,6 +27,7 @@ from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Float64MultiArray, Header, MultiArrayDimension
 
 from phri_common.cloud import cloud_records, point_fields, record_dtype
+from phri_common.periodic import PeriodicThread
 from phri_common.planar import yaw_from_quaternion
 from phri_common.stamps import ns_to_stamp
 from wholebody_controller.contact_safety import ForceGuard, Safety
@@ -207,3 +208,18 @@ def safety_status(link: str, safety: Safety, guard: ForceGuard,
     return DiagnosticStatus(
         level=level, name=f"{node_name}: contact safety {link}", message=message,
         hardware_id=link, values=[KeyValue(key=k, value=v) for k, v in values.items()])
+
+
+def loop_status(node_name: str, mode: str, loop: PeriodicThread | None,
+                error: BaseException | None) -> DiagnosticStatus:
+    """The control loop as a diagnostic status: ERROR once the control thread stopped on an
+    unexpected error, OK otherwise; values: the mode, cycles run and deadlines overrun."""
+    level, message = DiagnosticStatus.OK, f"running ({mode})"
+    if error is not None:
+        level, message = DiagnosticStatus.ERROR, f"control loop stopped: {error!r}"
+    values = {"control_loop": mode}
+    if loop is not None:
+        values.update(cycles=str(loop.cycles), overruns=str(loop.overruns))
+    return DiagnosticStatus(
+        level=level, name=f"{node_name}: control loop", message=message, hardware_id=node_name,
+        values=[KeyValue(key=k, value=v) for k, v in values.items()])

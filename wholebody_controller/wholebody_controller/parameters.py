@@ -32,10 +32,43 @@ LINKS_PARAM = ParamSpec(
     read_only=True, min_length=1,
 )
 
+CONTROL_LOOPS = ("auto", "thread", "timer")
+"""Values of ``control_loop``; the first is the default."""
+
+
+def control_loop_mode(value: str, use_sim_time: bool) -> str:
+    """The control loop a node runs: ``thread`` or ``timer`` (``control_loop`` resolved).
+
+    ``auto`` is ``timer`` under ``use_sim_time`` (a timer follows ``/clock``; the simulator's
+    lock-step delivers inputs through callbacks) and ``thread`` otherwise. The thread runs on the
+    wall clock, so it is refused with ``use_sim_time``.
+
+    Raises:
+        ValueError: an unknown value, or ``thread`` with ``use_sim_time`` (names the parameter).
+    """
+    if value not in CONTROL_LOOPS:
+        raise ValueError(f"parameter 'control_loop' refused value {value!r}: allowed "
+                         f"{', '.join(CONTROL_LOOPS)}")
+    if value == "thread" and use_sim_time:
+        raise ValueError("parameter 'control_loop' refused value 'thread' with use_sim_time: "
+                         "the thread runs on the wall clock; allowed with simulation time: "
+                         "timer, auto")
+    if value == "auto":
+        return "timer" if use_sim_time else "thread"
+    return value
+
+
 GLOBAL_PARAMS: list[ParamSpec] = [
     ParamSpec("rate_hz", paper.CONTROL_RATE_HZ,
               "control rate (timer and admittance discretisation)", "Hz",
               1.0, 1000.0, read_only=True),
+    ParamSpec("control_loop", CONTROL_LOOPS[0], "what runs the control cycle: thread (its own "
+              "thread at absolute deadlines, inputs taken at each cycle), timer (an executor "
+              "timer, inputs by callbacks; follows /clock), auto (timer under use_sim_time, "
+              "else thread)", read_only=True),
+    ParamSpec("thread_priority", 0, "control_loop thread: 0 = the normal scheduler, 1–99 = "
+              "SCHED_FIFO at that priority (needs an rtprio limit or CAP_SYS_NICE; refused → "
+              "warning, normal scheduler)", "-", 0, 99, read_only=True),
     ParamSpec("k_eta", paper.K_ETA, "track-force gain k_η of (12)", "N/m", 0.0, 1e5),
     ParamSpec("b", paper.B, "priority shape b of (15)", "s²/m²", 0.0, 1e6),
     ParamSpec("k_p", paper.K_P, "task-space gain K_p of (19)", "1/s", 0.0, 1000.0),
