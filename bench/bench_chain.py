@@ -37,11 +37,18 @@ after every control cycle that published a command, (end time, stamp of each lin
 state used). Commands map to frames through those stamps. Nothing in the node's code changes.
 
 ``--composed HZ`` runs the drivers and the estimator in one process instead
-(``phri_bringup.skin_contact_node``: direct hand-off, taxel topics at HZ).
+(``phri_bringup.skin_contact_node``: direct hand-off, taxel topics at HZ), its estimator
+probed as well: every frame it took and every contact state it published, by stamp. The
+**by stamp** line then counts exactly, per link: frames sent, taken, published, published but
+never received by the controller (and the bursts they were lost in), received but never
+published. The **pauses** line gives each probed process's full (generation-2) garbage
+collections and rclpy log calls inside the window, and the controller's longest cycle: the
+whole-process pauses that lost frames before ``phri_common.settle`` (README, "Drops").
+``--save DIR`` keeps the raw records (.npz) for a closer look.
 
 Run: ``.venv/bin/python bench/bench_chain.py [--seconds 60] [--taxels 2000] [--boards 3]
-[--rate 500] [--executor events|single] [--composed 50] [--no-markers]``. Keep runs ≤ 2 min
-on a shared machine.
+[--rate 500] [--executor events|single] [--composed 50] [--no-markers] [--save DIR]``.
+Keep runs ≤ 2 min on a shared machine.
 """
 
 from __future__ import annotations
@@ -119,6 +126,10 @@ PROBED_METHODS = ("take_contact", "tick", "destroy_node")
 ``test_bench_scripts.py`` checks they exist)."""
 
 
+PROBED_ESTIMATION_METHODS = ("on_frame", "destroy_node")
+"""The estimation node's methods the composed probe wraps (``test_bench_scripts.py``)."""
+
+
 def run_controller_probe(out: str, ros_args: Sequence[str]) -> int:
     """The controller node as deployed (``run_nodes``), with recording probes (module doc)."""
     from phri_common.ros_main import run_nodes
@@ -128,18 +139,27 @@ def run_controller_probe(out: str, ros_args: Sequence[str]) -> int:
     arrivals: list[tuple[int, int, int, int]] = []
     commands: list[tuple[int, ...]] = []
 
+    received: list[tuple[int, int, int, int]] = []
+    ticks: list[tuple[int, int]] = []
+    collections = _record_gc()
+    logs = _record_logs()
+    slices = _record_slices()
+
     class ProbedController(WholeBodyControllerNode):
         def take_contact(self, link: str, state: Any) -> None:
             now = time.time_ns()
             super().take_contact(link, state)
-            state = self.contacts.get(link)
-            if state is not None:
+            kept = self.contacts.get(link) is state
+            received.append((links.index(link), state.stamp_ns, now, int(kept)))
+            if kept:
                 force = round(float(np.linalg.norm(state.force)) * 1e6)  # [µN]
                 arrivals.append((links.index(link), state.stamp_ns, now, force))
 
         def tick(self) -> None:
             good = self.good_cycles
+            start = time.time_ns()
             super().tick()
+            ticks.append((start, time.time_ns()))
             if self.good_cycles > good:
                 used = [self.contacts[k].stamp_ns if k in self.contacts else 0 for k in links]
                 commands.append((time.time_ns(), *used))
@@ -149,10 +169,121 @@ def run_controller_probe(out: str, ros_args: Sequence[str]) -> int:
         def destroy_node(self) -> None:
             super().destroy_node()
             np.savez(out, arrivals=np.array(arrivals, dtype=np.int64).reshape(-1, 4),
-                     commands=np.array(commands, dtype=np.int64).reshape(-1, 1 + len(links)))
+                     commands=np.array(commands, dtype=np.int64).reshape(-1, 1 + len(links)),
+                     received=np.array(received, dtype=np.int64).reshape(-1, 4),
+                     slices=np.array(slices, dtype=np.int64).reshape(-1, 2),
+                     ticks=np.array(ticks, dtype=np.int64).reshape(-1, 2),
+                     gc=np.array(collections, dtype=np.int64).reshape(-1, 3),
+                     logs=np.array(logs, dtype=np.int64).reshape(-1, 2),
+                     rejected=np.array(getattr(self, "rejected_inputs", -1)))
 
     return run_nodes(lambda: [ProbedController()], "bench_chain_controller",
                      ["bench_chain", "--ros-args", *ros_args])
+
+
+def _record_slices() -> list[tuple[int, int]]:
+    """Record (start, end) [ns, wall clock] of every executor slice of this process
+    (``phri_common.ros_main.SliceSpinner.spin_slice``)."""
+    from phri_common import ros_main
+
+    slices: list[tuple[int, int]] = []
+    spin_slice = ros_main.SliceSpinner.spin_slice
+
+    def recorded(self: Any) -> None:
+        start = time.time_ns()
+        spin_slice(self)
+        slices.append((start, time.time_ns()))
+
+    ros_main.SliceSpinner.spin_slice = recorded
+    return slices
+
+
+def _record_gc() -> list[tuple[int, int, int]]:
+    """Record (start, end [ns, wall clock], generation) of every garbage collection."""
+    import gc
+
+    collections: list[tuple[int, int, int]] = []
+    started = [0]
+
+    def callback(phase: str, info: dict[str, int]) -> None:
+        if phase == "start":
+            started[0] = time.time_ns()
+        else:
+            collections.append((started[0], time.time_ns(), info["generation"]))
+
+    gc.callbacks.append(callback)
+    return collections
+
+
+def _record_logs() -> list[tuple[int, int]]:
+    """Record (start, end) [ns, wall clock] of every rclpy logger call of this process."""
+    from rclpy.impl import rcutils_logger
+    from rclpy.impl.rcutils_logger import RcutilsLogger
+
+    # rclpy keys its throttling by the first caller outside its own files: skip this one too.
+    rcutils_logger._internal_callers.append(os.path.realpath(__file__))
+    calls: list[tuple[int, int]] = []
+    log = RcutilsLogger.log
+
+    def recorded(self: Any, *args: Any, **kwargs: Any) -> bool:
+        start = time.time_ns()
+        try:
+            return bool(log(self, *args, **kwargs))
+        finally:
+            calls.append((start, time.time_ns()))
+
+    RcutilsLogger.log = recorded  # type: ignore[method-assign]
+    return calls
+
+
+class _RecordingPublisher:
+    """Stands in for a contact-state publisher: records (link, stamp, time) and publishes."""
+
+    def __init__(self, publisher: Any, link: int, records: list[tuple[int, int, int]]) -> None:
+        self._publisher, self._link, self._records = publisher, link, records
+
+    def publish(self, data: bytes) -> None:
+        from phri_common.contact_cdr import cloud_header
+
+        header = cloud_header(data)
+        self._publisher.publish(data)
+        self._records.append((self._link, header[1] if header else -1, time.time_ns()))
+
+
+def run_composed_probe(out: str, argv: Sequence[str]) -> int:
+    """The composed drivers + estimation process as deployed, its estimator probed: every
+    frame it took (patch, stamp, time) and every contact state it published (link, stamp,
+    time), so that published and arrived states compare by stamp, exactly."""
+    import phri_bringup.skin_contact_node as skin_contact_node
+    from contact_estimation.node import ContactEstimationNode
+
+    taken: list[tuple[int, int, int]] = []
+    published: list[tuple[int, int, int]] = []
+    slices = _record_slices()
+    collections = _record_gc()
+    logs = _record_logs()
+
+    class ProbedEstimation(ContactEstimationNode):  # methods: PROBED_ESTIMATION_METHODS
+        def __init__(self, **kwargs: Any) -> None:
+            super().__init__(**kwargs)
+            pubs = self._state_pubs
+            for link in list(pubs):
+                pubs[link] = _RecordingPublisher(pubs[link], SKIN_LINKS.index(link), published)
+
+        def on_frame(self, patch: str, taxels: Any) -> None:
+            taken.append((SKIN_PATCHES.index(patch), taxels.stamp_ns, time.time_ns()))
+            super().on_frame(patch, taxels)
+
+        def destroy_node(self) -> None:
+            super().destroy_node()
+            np.savez(out, taken=np.array(taken, dtype=np.int64).reshape(-1, 3),
+                     published=np.array(published, dtype=np.int64).reshape(-1, 3),
+                     slices=np.array(slices, dtype=np.int64).reshape(-1, 2),
+                     gc=np.array(collections, dtype=np.int64).reshape(-1, 3),
+                     logs=np.array(logs, dtype=np.int64).reshape(-1, 2))
+
+    skin_contact_node.ContactEstimationNode = ProbedEstimation
+    return skin_contact_node.main(["skin_contact_node", *argv])
 
 
 # -- start-up -----------------------------------------------------------------------------------
@@ -196,7 +327,7 @@ def _start_nodes(tmp: Path, layouts: list[Path], args: argparse.Namespace,
             time.sleep(0.01)
     if args.composed is not None:
         procs["skin_contact_node (drivers+estimation)"] = subprocess.Popen(
-            [sys.executable, "-m", "phri_bringup.skin_contact_node", "--drivers",
+            [sys.executable, __file__, "--composed-probe", str(tmp / "composed"), "--drivers",
              *(f"skin_driver_{i}" for i in range(len(layouts))), "--ros-args",
              "--params-file", str(_composed_params(tmp, layouts, args))], env=env)
     else:
@@ -405,9 +536,70 @@ def print_stages(i: int, sent: np.ndarray, records: Any, window: tuple[int, int]
     print("    stages, frames/s: " + ", ".join(f"{k} {v:.1f}" for k, v in rates.items()))
 
 
+def lost_stamps(published: np.ndarray, received: np.ndarray) -> list[int]:
+    """Stamps of ``published`` (in publishing order) that are not among ``received``, which
+    may hold them in any order, late, or more than once."""
+    got = set(received.tolist())
+    return [s for s in published.tolist() if s not in got]
+
+
+def print_trace(i: int, sent: np.ndarray, records: Any, probe: Any,
+                window: tuple[int, int]) -> None:
+    """Link i counted by stamp, exactly (``--composed``: the estimator is probed): frames the
+    board sent, the estimator took and published, and states the controller received, over the
+    frames whose estimator hand-off lies inside the window; published but never received, and
+    received but never published (stamps)."""
+    inside = (sent[:, 1] >= window[0]) & (sent[:, 1] < window[1])
+    taken = probe["taken"][probe["taken"][:, 0] == i]
+    published = probe["published"][probe["published"][:, 0] == i]
+    received = records["received"][records["received"][:, 0] == i]
+    took = taken[(taken[:, 2] >= window[0]) & (taken[:, 2] < window[1])]
+    pub = published[(published[:, 2] >= window[0]) & (published[:, 2] < window[1])]
+    lost = lost_stamps(pub[:, 1], received[:, 1])
+    pub_all = set(published[:, 1].tolist())
+    extra = [s for s in received[:, 1].tolist()
+             if s not in pub_all and window[0] <= s and s < window[1]]
+    kept = received[received[:, 3] == 0]
+    print(f"    by stamp: board sent {int(inside.sum())}, estimator took {len(took)} "
+          f"({len(took) - len(set(took[:, 1].tolist()))} repeated stamps), published "
+          f"{len(pub)}, of those never received by the controller {len(lost)}; received "
+          f"but not published {len(extra)}; received but refused {len(kept)}")
+    if lost:
+        at = pub[np.isin(pub[:, 1], lost), 2]
+        bursts = np.split(at, np.flatnonzero(np.diff(at) > 0.1e9) + 1)
+        print("    lost in bursts (s into the window, states, ms): " + ", ".join(
+            f"{(b[0] - window[0]) / 1e9:.2f} s {len(b)} over {(b[-1] - b[0]) / 1e6:.0f} ms"
+            for b in bursts))
+
+
+def print_pauses(records: Any, probe: Any, window: tuple[int, int]) -> None:
+    """Whole-process pauses inside the window: full (generation-2) garbage collections and
+    rclpy logger calls of the controller and, when probed, the composed process (count,
+    longest [ms], s into the window), and the controller's longest control cycle."""
+    def inside(rows: np.ndarray) -> np.ndarray:
+        return rows[(rows[:, 0] >= window[0]) & (rows[:, 0] < window[1])]
+
+    def longest(rows: np.ndarray) -> str:
+        if not len(rows):
+            return "0"
+        k = int(np.argmax(rows[:, 1] - rows[:, 0]))
+        return (f"{len(rows)}, longest {(rows[k, 1] - rows[k, 0]) / 1e6:.1f} ms at "
+                f"{(rows[k, 0] - window[0]) / 1e9:.2f} s")
+
+    for name, rec in (("controller", records), ("drivers+estimation", probe)):
+        if rec is None or "gc" not in rec:
+            continue
+        full = inside(rec["gc"][rec["gc"][:, 2] == 2])
+        extra = (f"; cycles: {longest(inside(rec['ticks']))}; inputs refused (whole run): "
+                 f"{int(rec['rejected'])}") if "ticks" in rec else ""
+        print(f"  pauses, {name}: full collections {longest(full)}; log calls "
+              f"{longest(inside(rec['logs']))}{extra}")
+
+
 def report(args: argparse.Namespace, sent: dict[int, tuple[np.ndarray, int]], records: Any,
            window: tuple[int, int], cpu: dict[str, float], busy_cores: float,
-           diagnostics: list[tuple[int, str, dict[str, str]]] | None = None) -> None:
+           diagnostics: list[tuple[int, str, dict[str, str]]] | None = None,
+           probe: Any = None) -> None:
     """Print the results (see the module docstring)."""
     period_ns = 1e9 / args.rate
     markers = "off" if not args.markers else (
@@ -435,6 +627,9 @@ def report(args: argparse.Namespace, sent: dict[int, tuple[np.ndarray, int]], re
               f"{counts['used']}, contact states matching no frame {counts['unmatched']}")
         if diagnostics is not None:
             print_stages(i, sent[i][0], records, window, diagnostics)
+        if probe is not None:
+            print_trace(i, sent[i][0], records, probe, window)
+    print_pauses(records, probe, window)
     state_ns, command_ns = np.concatenate(all_state), np.concatenate(all_command)
     commands = records["commands"]
     n_cmd = int(((commands[:, 0] >= window[0]) & (commands[:, 0] < window[1])).sum())
@@ -506,8 +701,17 @@ def measure(args: argparse.Namespace, tmp: Path) -> None:
     if records["arrivals"].size == 0:
         raise RuntimeError("the controller probe recorded no contact state (is "
                            f"WholeBodyControllerNode still calling {PROBED_METHODS[0]}?)")
+    probe = np.load(tmp / "composed.npz") if args.composed is not None else None
+    if args.save:
+        save = Path(args.save)
+        save.mkdir(parents=True, exist_ok=True)
+        np.savez(save / "sent.npz", window=np.array([t0, t1]),
+                 **{f"sent{i}": frames for i, (frames, _late) in sent.items()})
+        for name in ("controller.npz", "composed.npz"):
+            if (tmp / name).exists():
+                shutil.copy(tmp / name, save / name)
     report(args, sent, records, (t0, t1), cpu, machine1.busy_cores_since(machine0),
-           inputs.diagnostics)
+           inputs.diagnostics, probe)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -515,6 +719,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if argv and argv[0] == "--controller-probe":
         rest = argv[2:]
         return run_controller_probe(argv[1], rest[1:] if rest[:1] == ["--ros-args"] else rest)
+    if argv and argv[0] == "--composed-probe":
+        return run_composed_probe(argv[1], argv[2:])
     p = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     p.add_argument("--seconds", type=float, default=60.0, help="measured seconds")
     p.add_argument("--warmup", type=float, default=3.0, help="seconds ignored after start-up")
@@ -533,6 +739,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                    help="contact_estimation marker_rate_hz (0 = every state, as before 15)")
     p.add_argument("--no-markers", dest="markers", action="store_false",
                    help="contact_estimation publish_markers:=false")
+    p.add_argument("--save", metavar="DIR", default=None,
+                   help="keep the raw records (frames sent, probes) in DIR as .npz")
     args = p.parse_args(argv)
     isolate_ros_environment()
     print(load_line())

@@ -115,3 +115,35 @@ def test_bench_chain_matches_every_state_to_its_own_frame_across_the_code_wrap()
     jitter = np.random.default_rng(0).integers(-3_000_000, 3_000_000, n)  # stamp error [ns]
     found = module.match_frames(board + offset + 300_000 + jitter, expected, sent, period)
     np.testing.assert_array_equal(found, np.arange(n))
+
+
+def test_bench_chain_composed_probe_wraps_what_the_estimation_node_has() -> None:
+    """The composed probe overrides ``on_frame`` and swaps the contact-state publishers: a
+    rename would make it record nothing (every state would read as never published)."""
+    import importlib.util
+
+    from contact_estimation.node import ContactEstimationNode
+
+    spec = importlib.util.spec_from_file_location("bench_chain", ROOT / "bench" / "bench_chain.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    for method in module.PROBED_ESTIMATION_METHODS:
+        assert callable(getattr(ContactEstimationNode, method, None)), method
+    init = ContactEstimationNode.__init__.__code__
+    assert "_state_pubs" in init.co_names
+
+
+def test_bench_chain_counts_lost_states_by_stamp_whatever_the_arrival_order() -> None:
+    """Published stamps missing from the received ones, exactly: late, reordered and repeated
+    arrivals count as received; a contiguous burst of missing ones is reported in order."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("bench_chain", ROOT / "bench" / "bench_chain.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    published = np.arange(100, dtype=np.int64) * 2_000_000 + 7
+    received = np.concatenate([published[:40], published[75:][::-1], published[:3]])
+    assert module.lost_stamps(published, received) == published[40:75].tolist()
+    assert module.lost_stamps(published, published[::-1]) == []
