@@ -9,11 +9,13 @@ benchmarks also run a few iterations.
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import re
 import subprocess
 import sys
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 import pytest
@@ -21,6 +23,15 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPTS = sorted(p.name for p in (ROOT / "bench").glob("bench_*.py"))
 SMOKE = {"bench_kinematics.py": ["--iterations", "20"]}
+
+
+def bench_chain() -> ModuleType:
+    """bench/bench_chain.py loaded as a module (``bench/`` is no package)."""
+    spec = importlib.util.spec_from_file_location("bench_chain", ROOT / "bench" / "bench_chain.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def run_script(name: str, args: list[str], cwd: Path) -> subprocess.CompletedProcess[str]:
@@ -58,14 +69,9 @@ def test_readme_documents_every_bench_script_and_only_existing_ones() -> None:
 def test_bench_chain_probe_wraps_methods_the_controller_node_has() -> None:
     """bench_chain.py's controller probe overrides node methods; if one is renamed the probe
     records nothing and every frame reads as dropped (it happened: _on_contact was renamed)."""
-    import importlib.util
-
     from wholebody_controller.node import WholeBodyControllerNode
 
-    spec = importlib.util.spec_from_file_location("bench_chain", ROOT / "bench" / "bench_chain.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = bench_chain()
     for method in module.PROBED_METHODS:
         assert callable(getattr(WholeBodyControllerNode, method, None)), method
 
@@ -75,12 +81,7 @@ def test_bench_chain_expected_forces_follow_the_drivers_window() -> None:
     reached the driver — a frame cut off at the full pty is skipped, and a board silence longer
     than the driver's timeout restarts the window (else one lost frame would make the next ten
     read as dropped)."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("bench_chain", ROOT / "bench" / "bench_chain.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = bench_chain()
     pressed = np.arange(1, 31, dtype=np.int64) * 100
     plain = module.expected_forces(pressed)
     assert plain[0] == 100 and plain[9] == 550 and plain[29] == 2550  # means of 1..k, last 10
@@ -98,12 +99,7 @@ def test_bench_chain_matches_every_state_to_its_own_frame_across_the_code_wrap()
     """Contact states stamped within a few ms of their frame and carrying its expected force
     are matched to exactly that frame, also where the force code wraps (MODULUS frames) and the
     moving average revisits values nearby frames also take."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("bench_chain", ROOT / "bench" / "bench_chain.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = bench_chain()
     period = 2_000_000
     n = 3 * module.MODULUS
     board = np.arange(n, dtype=np.int64) * period
@@ -120,14 +116,9 @@ def test_bench_chain_matches_every_state_to_its_own_frame_across_the_code_wrap()
 def test_bench_chain_composed_probe_wraps_what_the_estimation_node_has() -> None:
     """The composed probe overrides ``on_frame`` and swaps the contact-state publishers: a
     rename would make it record nothing (every state would read as never published)."""
-    import importlib.util
-
     from contact_estimation.node import ContactEstimationNode
 
-    spec = importlib.util.spec_from_file_location("bench_chain", ROOT / "bench" / "bench_chain.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = bench_chain()
     for method in module.PROBED_ESTIMATION_METHODS:
         assert callable(getattr(ContactEstimationNode, method, None)), method
     init = ContactEstimationNode.__init__.__code__
@@ -137,12 +128,7 @@ def test_bench_chain_composed_probe_wraps_what_the_estimation_node_has() -> None
 def test_bench_chain_counts_lost_states_by_stamp_whatever_the_arrival_order() -> None:
     """Published stamps missing from the received ones, exactly: late, reordered and repeated
     arrivals count as received; a contiguous burst of missing ones is reported in order."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("bench_chain", ROOT / "bench" / "bench_chain.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = bench_chain()
     published = np.arange(100, dtype=np.int64) * 2_000_000 + 7
     received = np.concatenate([published[:40], published[75:][::-1], published[:3]])
     assert module.lost_stamps(published, received) == published[40:75].tolist()
