@@ -17,15 +17,12 @@ from hypothesis import strategies as st
 from wbc_fake_kinematics import FakeKinematics
 from wbc_reference import RefController
 from wbc_rotations import exp_rotvec
+from wbc_tolerances import GAINS, QP_TOL, TOL, close
 
 from phri_common.records import ContactState
 from wholebody_controller.admittance import Admittance, discretise
 from wholebody_controller.config import (
-    CONTACT_CENTRING,
-    CONTACT_TRACKING,
     SKIN_LINKS,
-    WALTZ,
-    WHOLE_BODY,
     AdmittanceGains,
     ControllerConfig,
     LinkTaskConfig,
@@ -34,21 +31,8 @@ from wholebody_controller.config import (
 from wholebody_controller.controller import StepResult, WholeBodyController
 from wholebody_controller.qp import QPBuilder, build_qp, velocity_bounds
 
-TOL = 1e-9
-QP_TOL = 1e-7
-"""The QP's answer: the reference's SO(3) maps (scipy) differ from production's by rounding
-(~1e-16), and on a nearly degenerate QP daqp's active-set tolerances turn that into up to ~1e-9
-(seen: 2.3e-9) of the command; 1e-7 stays far inside the 1e-6 exactness bar (design §7)."""
 Q0 = np.array([0.2, -0.1, 0.4, 0.3, -1.2, 1.5, -1.0, -1.57, 0.0,
                -0.3, 1.2, -1.5, 1.0, 1.57, 0.0])
-GAINS = [CONTACT_CENTRING, CONTACT_TRACKING, WHOLE_BODY, WALTZ,
-         AdmittanceGains((0.3, 0.5, 0.7, 0.2, 0.4, 0.6), (10.0, 30.0, 0.0, 5.0, 8.0, 60.0),
-                         (0.0, 20.0, 5.0, 0.0, 1.0, 3.0))]
-
-
-def close(a: object, b: object, what: str, tol: float = TOL) -> None:
-    np.testing.assert_allclose(np.asarray(a, dtype=float), np.asarray(b, dtype=float),
-                               rtol=tol, atol=tol, err_msg=what)
 
 
 def assert_same_step(fast: StepResult, ref: object) -> None:

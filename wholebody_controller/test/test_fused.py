@@ -17,15 +17,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from wbc_fake_kinematics import FakeKinematics
 from wbc_rotations import exp_rotvec
+from wbc_tolerances import GAINS, QP_TOL, close
 
 from phri_common.records import ContactState
 from wholebody_controller.config import (
-    CONTACT_CENTRING,
-    CONTACT_TRACKING,
     SKIN_LINKS,
     WALTZ,
-    WHOLE_BODY,
-    AdmittanceGains,
     ControllerConfig,
     LinkTaskConfig,
     dance_ranges,
@@ -37,19 +34,9 @@ from wholebody_controller.kinematics import RobotKinematics
 from wholebody_controller.parameters import PARAMS, config_from_values
 from wholebody_controller.qp import QPError
 
-TOL = 1e-9
-QP_TOL = 1e-7
 Q0 = np.array([0.2, -0.1, 0.4, 0.3, -1.2, 1.5, -1.0, -1.57, 0.0,
                -0.3, -1.9, -1.5, -1.0, 1.57, 0.0])
 CENTRE = np.array([-0.15, 0.0, 0.05])
-GAINS = [CONTACT_CENTRING, CONTACT_TRACKING, WHOLE_BODY, WALTZ,
-         AdmittanceGains((0.3, 0.5, 0.7, 0.2, 0.4, 0.6), (10.0, 30.0, 0.0, 5.0, 8.0, 60.0),
-                         (0.0, 20.0, 5.0, 0.0, 1.0, 3.0))]
-
-
-def close(a: object, b: object, what: str, tol: float = TOL) -> None:
-    np.testing.assert_allclose(np.asarray(a, dtype=float), np.asarray(b, dtype=float),
-                               rtol=tol, atol=tol, err_msg=what)
 
 
 def assert_same(fast: StepResult, ref: StepResult, k: int) -> None:
