@@ -25,6 +25,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 import yaml
 
+from phri_common.share import share_file, source_tree
 from phri_description.description import (
     CylindricalPatch,
     Geom,
@@ -35,14 +36,48 @@ from phri_description.description import (
 )
 from phri_description.transforms import axis_angle, rpy_from_matrix
 
-URDF_PATH = Path(__file__).resolve().parent.parent / "urdf" / "phri_robot.urdf"
-"""The checked-in URDF (installed to ``share/phri_description/urdf/``)."""
-PATCHES_PATH = Path(__file__).resolve().parent.parent / "config" / "skin_patches.yaml"
-"""The checked-in skin patch specs (installed to ``share/phri_description/config/``)."""
+PACKAGE = "phri_description"
+URDF_FILE = "urdf/phri_robot.urdf"
+"""The URDF, relative to the package's share directory (and its source tree)."""
+PATCHES_FILE = "config/skin_patches.yaml"
+"""The skin patch specs, relative to the package's share directory (and its source tree)."""
+
+
+def urdf_path() -> Path:
+    """The installed URDF (``share/phri_description/urdf/``; the source tree on the pip path)."""
+    return share_file(PACKAGE, URDF_FILE)
+
+
+def patches_path() -> Path:
+    """The installed skin patch YAML (``share/phri_description/config/``)."""
+    return share_file(PACKAGE, PATCHES_FILE)
+
+
+def source_dir() -> Path:
+    """This package's source tree, where :func:`main` writes the checked-in files.
+
+    Raises:
+        FileNotFoundError: the module does not run from a source checkout (an installed copy).
+    """
+    found = source_tree(PACKAGE)
+    if found is None:
+        raise FileNotFoundError("regenerate the description from a source checkout: "
+                                f"{PACKAGE} is imported from an installed copy ({__file__})")
+    return found
+
+
+RESOLUTION = 1e-9
+"""Smallest magnitude the generated files write [m, rad, kg, kg·m²]: anything smaller is 0."""
 
 
 def _f(x: float) -> str:
-    return f"{x + 0.0:.9g}"  # + 0.0 turns -0.0 into 0
+    """``x`` as written to the URDF: 9 significant digits, and 0 below :data:`RESOLUTION`.
+
+    The description's numbers come from trigonometry and matrix products whose last bits differ
+    between machines and numpy/BLAS builds (a centre of mass of ``9.97e-20`` on one, ``0`` on
+    another); a zero must be written as one everywhere. ``+ 0.0`` turns −0 into 0.
+    """
+    return f"{(0.0 if abs(x) < RESOLUTION else x) + 0.0:.9g}"
 
 
 def _origin(xyz: np.ndarray | tuple[float, ...], rot: np.ndarray) -> str:
@@ -271,15 +306,17 @@ def load_patches_yaml(text: str) -> list[CylindricalPatch]:
 
 
 def main() -> None:
-    """Write the checked-in URDF (or the path given as the only argument) and patch YAML."""
-    path = Path(sys.argv[1]) if len(sys.argv) > 1 else URDF_PATH
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(urdf_string(), encoding="utf-8")
-    print(f"wrote {path}")
-    if len(sys.argv) <= 1:
-        PATCHES_PATH.parent.mkdir(parents=True, exist_ok=True)
-        PATCHES_PATH.write_text(patches_yaml(), encoding="utf-8")
-        print(f"wrote {PATCHES_PATH}")
+    """Write the checked-in URDF and patch YAML into the source tree (or only the URDF, to the
+    path given as the only argument)."""
+    if len(sys.argv) > 1:
+        targets = [(Path(sys.argv[1]), urdf_string())]
+    else:
+        root = source_dir()
+        targets = [(root / URDF_FILE, urdf_string()), (root / PATCHES_FILE, patches_yaml())]
+    for path, text in targets:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text, encoding="utf-8")
+        print(f"wrote {path}")
 
 
 if __name__ == "__main__":

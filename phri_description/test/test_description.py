@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import math
+import re
 import xml.etree.ElementTree as ET
 
 import mujoco
 import numpy as np
 import pytest
 
+from phri_common.testing import assert_generated_file
 from phri_description.description import (
     JOINT_NAMES,
     SKIN_LINKS,
@@ -17,12 +19,14 @@ from phri_description.description import (
 )
 from phri_description.mujoco_model import build_model
 from phri_description.urdf_writer import (
-    PATCHES_PATH,
-    URDF_PATH,
     load_patches_yaml,
+    patches_path,
     patches_yaml,
+    urdf_path,
     urdf_string,
 )
+
+REGENERATE = ".venv/bin/python -m phri_description.urdf_writer"
 
 # design §5, written out again here so the test does not read the values it checks
 D = [0.1807, 0.0, 0.0, 0.17415, 0.11985, 0.11655]
@@ -93,9 +97,16 @@ def urdf_link_poses(root: ET.Element, q: dict[str, float]) -> dict[str, np.ndarr
 
 
 def test_checked_in_urdf_is_the_generated_one() -> None:
-    assert URDF_PATH.read_text(encoding="utf-8") == urdf_string(), (
-        "phri_description/urdf/phri_robot.urdf is stale: run python -m phri_description.urdf_writer"
-    )
+    assert_generated_file(urdf_path(), urdf_string(), REGENERATE)
+
+
+def test_urdf_writes_arithmetic_noise_as_zero() -> None:
+    """A generated file must not depend on the last bits of a machine's arithmetic: the base's
+    centre of mass and the arm mounts' roll come out of products of rotations as 1e-16…1e-20 on
+    some machines and 0 on others; the file writes 0."""
+    text = urdf_string()
+    assert '<origin xyz="0 0.15 0.7" rpy="1.57079633 0 3.14159265"/>' in text
+    assert not re.search(r"\de-(1\d|[2-9]\d)\b", text), "noise below 1e-9 written as a number"
 
 
 def test_urdf_declares_the_joints_and_limits_of_design_5() -> None:
@@ -151,15 +162,15 @@ def test_skin_patches_are_on_the_three_skin_links() -> None:
 
 
 def test_checked_in_patch_yaml_is_the_generated_one_and_round_trips() -> None:
-    text = PATCHES_PATH.read_text(encoding="utf-8")
-    assert text == patches_yaml(), "stale: run `.venv/bin/python -m phri_description.urdf_writer`"
+    assert_generated_file(patches_path(), patches_yaml(), REGENERATE)
+    text = patches_path().read_text(encoding="utf-8")
     assert load_patches_yaml(text) == list(robot_description().patches)
 
 
 def test_patches_lie_on_their_links_collision_cylinders() -> None:
     """Each patch's cylinder is one collision cylinder of its link in the URDF (same axis line,
     same radius, axial range inside its length), so taxels sit on the collision surface."""
-    root = ET.parse(URDF_PATH).getroot()
+    root = ET.parse(urdf_path()).getroot()
     links = {link.get("name"): link for link in root.iter("link")}
     for p in robot_description().patches:
         axis, point = np.array(p.axis), np.array(p.point)
@@ -197,7 +208,7 @@ def test_patches_lie_on_their_links_collision_cylinders() -> None:
 
 
 def test_urdf_and_mujoco_masses_match_design_and_inertias_are_physical() -> None:
-    root = ET.parse(URDF_PATH).getroot()
+    root = ET.parse(urdf_path()).getroot()
     links = {link.get("name"): link for link in root.iter("link")}
     model = build_model()
     for side in ("left", "right"):
@@ -247,9 +258,7 @@ def test_arm_inertials_are_the_official_ur16e_values(side: str) -> None:
     import xml.etree.ElementTree as ET
 
     from phri_description.mujoco_model import build_model
-    from phri_description.urdf_writer import URDF_PATH
-
-    links = {lk.get("name"): lk for lk in ET.parse(URDF_PATH).getroot().iter("link")}
+    links = {lk.get("name"): lk for lk in ET.parse(urdf_path()).getroot().iter("link")}
     model = build_model()
     for link, (mass, com, (ixx, iyy, izz, ixy, ixz, iyz)) in UR16E_REFERENCE.items():
         inertial = links[f"{side}_{link}"].find("inertial")
