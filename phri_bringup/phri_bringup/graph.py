@@ -18,12 +18,11 @@ subscribes and the tests expect in a recording.
 
 from __future__ import annotations
 
-import os
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from phri_common.share import package_share
 from phri_description.description import SIDES, SKIN_LINKS, SKIN_PATCHES
 
 PACKAGE = "phri_bringup"
@@ -133,31 +132,10 @@ def scenario_file(name: str) -> str:
 
 
 def share_dir(package: str = PACKAGE) -> Path:
-    """Directory holding a package's ``config/`` (and for phri_bringup ``launch/``, ``rviz/``):
-    the source tree for an editable install, else ``<prefix>/share/<package>`` (pip data files or
-    a colcon install, found through ``AMENT_PREFIX_PATH``)."""
-    import importlib.util
-
-    if package == PACKAGE:
-        modules = [Path(__file__).resolve().parent]
-    else:
-        spec = importlib.util.find_spec(package)
-        modules = [Path(p).resolve() for p in (spec.submodule_search_locations or [])] \
-            if spec is not None else []
-    # A source tree is <package>/package.xml beside <package>/<package>/ (the module); when the
-    # repository root is on sys.path the outer directory itself is found as a namespace package.
-    for source in (d for m in modules for d in (m.parent, m)):
-        if (source / "config").is_dir() and (source / "package.xml").is_file():
-            return source
-    candidates = [Path(sys.prefix) / "share" / package]
-    for prefix in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep):
-        if prefix:
-            candidates.append(Path(prefix) / "share" / package)
-    for candidate in candidates:
-        if (candidate / "config").is_dir():
-            return candidate
-    raise FileNotFoundError(f"{package}: no config directory found (looked in "
-                            f"{', '.join(str(c) for c in [*modules, *candidates])})")
+    """Directory holding a package's data files (``config/``; for phri_bringup also
+    ``launch/``, ``rviz/``): :func:`phri_common.share.package_share` (the ament index's share
+    directory, else the source tree)."""
+    return package_share(package)
 
 
 def config_file(stem: str) -> Path:

@@ -136,3 +136,27 @@ def test_colcon_runs_pytest_with_the_workspace_options(package: str) -> None:
     assert float(local["timeout"]) == options["timeout"]
     assert [m.strip() for m in local["markers"].strip().splitlines()] == options["markers"]
     assert local["filterwarnings"].split() == options["filterwarnings"]
+
+
+DATA_FOLDERS = ("config", "launch", "rviz", "urdf", "meshes", "layouts")
+"""Folders of a package whose files a ROS install must find in ``share/<package>/``."""
+
+
+@pytest.mark.parametrize("package", PACKAGES)
+def test_every_data_file_is_installed_to_the_share_directory(package: str) -> None:
+    """A plain ``colcon build`` copies only what ``[options.data_files]`` lists: a data file left
+    out exists in the source tree (and so for an editable install) but not in
+    ``install/<package>/share`` — where nodes, launch files and tests of a ROS install look."""
+    cfg = configparser.ConfigParser()
+    cfg.read(ROOT / package / "setup.cfg", encoding="utf-8")
+    installed = {}
+    for target, sources in cfg["options.data_files"].items():
+        for source in re.split(r"[,\s]+", sources.strip()):
+            if source:
+                installed[source] = target
+    for folder in DATA_FOLDERS:
+        for path in sorted((ROOT / package / folder).glob("*")):
+            relative = f"{folder}/{path.name}"
+            assert installed.get(relative) == f"share/{package}/{folder}", (
+                f"{package}/setup.cfg [options.data_files] must install {relative} to "
+                f"share/{package}/{folder}")

@@ -66,7 +66,7 @@ def test_tf_tree_composes_to_the_simulator_link_poses() -> None:
 
     from scipy.spatial.transform import Rotation
 
-    from phri_description.urdf_writer import URDF_PATH
+    from phri_description.urdf_writer import urdf_path
     from phri_sim.scenarios import Q_HOME
     from phri_sim.sim import Simulation
 
@@ -78,7 +78,7 @@ def test_tf_tree_composes_to_the_simulator_link_poses() -> None:
     frames.set_state(sim.joint_names[3:], q[3:], q[:3])
     world: dict[str, tuple[np.ndarray, np.ndarray]] = {"odom": (np.eye(3), np.zeros(3))}
     transforms = frames.transforms()
-    urdf = ET.parse(URDF_PATH).getroot()
+    urdf = ET.parse(urdf_path()).getroot()
     urdf_edges = {(j.find("parent").get("link"), j.find("child").get("link"))  # type: ignore[union-attr]
                   for j in urdf.iter("joint")}
     assert [(t.parent, t.child) for t in transforms if (t.parent, t.child) in urdf_edges] == \

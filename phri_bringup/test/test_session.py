@@ -82,11 +82,11 @@ def recorded_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Any]:
 
 def test_phri_sim_publishes_the_robot_description(recorded_run: Any) -> None:
     """In ``phri sim`` (no robot_state_publisher) the URDF is on /robot_description, latched."""
-    from phri_description.urdf_writer import URDF_PATH
+    from phri_description.urdf_writer import urdf_string
 
     _, result = recorded_run
     urdfs = result.message_counts["urdf"]
-    assert urdfs and urdfs[0] == URDF_PATH.read_text(encoding="utf-8")
+    assert urdfs and urdfs[0] == urdf_string()
 
 
 def test_recording_holds_every_documented_topic_with_its_type(recorded_run: Any) -> None:

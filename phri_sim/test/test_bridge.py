@@ -136,9 +136,9 @@ def test_joint_states_cover_every_moving_urdf_joint(ros_context: Any) -> None:
     from rclpy.qos import qos_profile_sensor_data
     from sensor_msgs.msg import JointState
 
-    from phri_description.urdf_writer import URDF_PATH
+    from phri_description.urdf_writer import urdf_path
 
-    moving = {j.get("name") for j in ET.parse(URDF_PATH).getroot().iter("joint")
+    moving = {j.get("name") for j in ET.parse(urdf_path()).getroot().iter("joint")
               if j.get("type") != "fixed"}
     node = _bridge(ros_context)
     peer = Node("joint_probe", context=ros_context)
