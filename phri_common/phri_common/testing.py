@@ -1,21 +1,58 @@
-"""Test helpers: isolated ROS domains and spinning until a condition holds.
+"""Test helpers: isolated ROS domains, spinning until a condition holds, hypothesis profiles,
+generated files compared with their generator.
 
 Every test process picks its own ``ROS_DOMAIN_ID`` (from its pid) and restricts discovery to
 localhost, so parallel test runs on one machine never hear each other (design §5).
+
+Importing this module (every package's ``conftest.py`` does, first) also keeps OpenBLAS to one
+thread in the test process unless ``OPENBLAS_NUM_THREADS`` is set: the suite runs packages in
+parallel on two cores, where OpenBLAS's spinning worker threads made each small LAPACK call
+(scipy's 6×6 ``expm`` in the reference step) about five times slower.
 """
 
 from __future__ import annotations
 
-import difflib
 import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy loads OpenBLAS
+
+import difflib
+import math
+import re
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
 
 from phri_common.params import ParamSpec, markdown_table, table_in
+
+HYPOTHESIS_PROFILES = {"ci": 100, "deep": 1000}
+"""The suite's hypothesis profiles and their base number of examples per property test. "ci"
+(the default: what ``./test.sh``, ``colcon test`` and CI run) is derandomized, so every run
+draws the same examples and a CI failure reproduces locally; "deep" (``pytest
+--hypothesis-profile=deep``) draws ten times as many, at random, for a run before a release.
+Every profile prints a failing example with its ``@reproduce_failure`` blob."""
+
+
+def register_hypothesis_profiles() -> None:
+    """Register :data:`HYPOTHESIS_PROFILES` and load "ci" (each package's ``conftest.py``;
+    ``--hypothesis-profile`` or ``HYPOTHESIS_PROFILE`` choose another)."""
+    for name, examples in HYPOTHESIS_PROFILES.items():
+        settings.register_profile(name, max_examples=examples, derandomize=name == "ci",
+                                  deadline=None, print_blob=True)
+    settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+
+
+def examples(factor: float) -> int:
+    """``factor`` times the loaded profile's examples per test: for property tests that guard
+    the controller and need more than the base number (or fewer, being slow), so that "deep"
+    scales them too."""
+    current = settings.default
+    base = current.max_examples if current is not None else HYPOTHESIS_PROFILES["ci"]
+    return max(1, round(factor * base))
 
 
 def isolated_domain_id() -> int:
@@ -76,3 +113,44 @@ def assert_parameter_table(doc: Path, specs: Sequence[ParamSpec]) -> None:
                                                "docs", "code", lineterm="", n=0))
         pytest.fail(f"{doc.name}: the parameter table differs from the code "
                     f"(- docs, + code):\n{diff}")
+
+
+_NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+
+
+def generated_text_differences(stored: str, generated: str, tolerance: float) -> list[str]:
+    """Lines where two generated text files differ beyond their numbers' last digits.
+
+    Text outside numbers must be equal; numbers a, b must satisfy
+    ``|a − b| ≤ tolerance · max(1, |a|, |b|)`` (so ``9.97e-20`` against ``0`` is no difference:
+    arithmetic noise of another machine, not a change). Returns ``line N: stored | generated``
+    for each differing line (all lines when the line counts differ).
+    """
+    a_lines, b_lines = stored.splitlines(), generated.splitlines()
+    if len(a_lines) != len(b_lines):
+        return [f"{len(a_lines)} lines stored, {len(b_lines)} generated"]
+    out = []
+    for number, (a, b) in enumerate(zip(a_lines, b_lines, strict=True), start=1):
+        if a == b:
+            continue
+        same = _NUMBER.split(a) == _NUMBER.split(b)
+        xs, ys = _NUMBER.findall(a), _NUMBER.findall(b)
+        same = same and len(xs) == len(ys) and all(
+            abs(float(x) - float(y)) <= tolerance * max(1.0, abs(float(x)), abs(float(y)))
+            or (math.isnan(float(x)) and math.isnan(float(y)))
+            for x, y in zip(xs, ys, strict=True))
+        if not same:
+            out.append(f"line {number}: {a.strip()} | {b.strip()}")
+    return out
+
+
+def assert_generated_file(stored: Path, generated: str, regenerate: str,
+                          tolerance: float = 1e-8) -> None:
+    """Fail unless the checked-in file ``stored`` is ``generated`` (numbers to ``tolerance``,
+    :func:`generated_text_differences`); the message says which command regenerates it."""
+    differences = generated_text_differences(stored.read_text(encoding="utf-8"), generated,
+                                             tolerance)
+    if differences:
+        shown = "\n".join(differences[:10])
+        pytest.fail(f"{stored} differs from what its generator writes now; if the change is "
+                    f"intended, run `{regenerate}` and commit the file:\n{shown}")
