@@ -1,5 +1,12 @@
-"""The optimised control step (plain-float tasks, batched QP build) against the straightforward
-numpy reference ``wbc_reference.py`` on random inputs: every output within 1e-9.
+"""The production control step against the independent numpy reference ``wbc_reference.py``
+on random inputs: every output within 1e-9 (the command within 1e-7, ``wbc_tolerances``).
+
+The reference covers everything that ships (contact safety, Algorithm 1, Ω_d with its window
+and hysteresis, the lead moment and leash, (10)–(23)); it runs beside the Python step on an
+independent D-H robot (``wbc_fake_kinematics``) and beside the compiled step on the real robot.
+A failure prints the example (hypothesis) and its ``@reproduce_failure`` blob; the examples of
+the default profile are derandomized, ``--hypothesis-profile=deep`` draws many more
+(``docs/wholebody_controller.md``, "Tests").
 
 Also the pieces on their own: the decoupled admittance step against ``Φ s + Γ w``, and
 :class:`QPBuilder` against :func:`velocity_bounds` + :func:`build_qp` (the SO(3) maps are
@@ -17,18 +24,26 @@ from hypothesis import strategies as st
 from wbc_fake_kinematics import FakeKinematics
 from wbc_reference import RefController
 from wbc_rotations import exp_rotvec
+from wbc_scenarios import configs, touch_sequence
 from wbc_tolerances import GAINS, QP_TOL, TOL, close
 
 from phri_common.records import ContactState
+from phri_common.testing import examples
 from wholebody_controller.admittance import Admittance, discretise
 from wholebody_controller.config import (
+    CONTACT_CENTRING,
     SKIN_LINKS,
+    WALTZ,
+    WHOLE_BODY,
     AdmittanceGains,
     ControllerConfig,
     LinkTaskConfig,
     dance_ranges,
 )
+from wholebody_controller.contact_safety import Safety
+from wholebody_controller.contact_task import Phase
 from wholebody_controller.controller import StepResult, WholeBodyController
+from wholebody_controller.kinematics import RobotKinematics
 from wholebody_controller.qp import QPBuilder, build_qp, velocity_bounds
 
 Q0 = np.array([0.2, -0.1, 0.4, 0.3, -1.2, 1.5, -1.0, -1.57, 0.0,
@@ -41,7 +56,7 @@ def assert_same_step(fast: StepResult, ref: object) -> None:
     for name in ("hessian", "gradient", "lower", "upper"):
         close(getattr(fast.problem, name), getattr(ref.problem, name), name)  # type: ignore
     for i, (a, b) in enumerate(zip(fast.tasks, ref.tasks, strict=True)):  # type: ignore
-        assert a.phase is b.phase and a.in_contact == b.in_contact, i
+        assert (a.phase, a.in_contact, a.safety) == (b.phase, b.in_contact, b.safety), i
         close([a.psi, a.psi_raw], [b.psi, b.psi_raw], f"psi {i}")
         for name in ("point", "target", "control_velocity", "wrench", "track_force",
                      "deflection", "deflection_velocity"):
@@ -97,23 +112,81 @@ def scenarios(draw: st.DrawFn) -> tuple[ControllerConfig, list[dict[str, Contact
     return config, steps
 
 
-@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+def run_against_reference(fast: WholeBodyController, ref: RefController, q0: np.ndarray,
+                          sequence: list[dict[str, ContactState]]) -> list[StepResult]:
+    """Step both through ``sequence`` from ``q0``, comparing every step; the production step's
+    results."""
+    q, results = q0.copy(), []
+    for k, contacts in enumerate(sequence):
+        a, b = fast.step(q, contacts), ref.step(q.copy(), contacts)
+        try:
+            assert_same_step(a, b)
+        except AssertionError as err:
+            raise AssertionError(f"step {k}: {err}") from None
+        results.append(a)
+        # Same motion on both sides keeps the comparison exact over the whole sequence.
+        q = q + fast.config.dt * a.qdot
+    return results
+
+
+@settings(max_examples=examples(3), suppress_health_check=[HealthCheck.too_slow])
 @given(scenarios(), st.sampled_from(["daqp", "osqp"]))
 def test_fast_step_equals_reference(
     case: tuple[ControllerConfig, list[dict[str, ContactState]]], solver: str
 ) -> None:
     config, sequence = case
     config = replace(config, solver=solver)
-    kin_fast, kin_ref = FakeKinematics(), FakeKinematics()
-    fast = WholeBodyController(kin_fast, config)
-    ref = RefController(kin_ref, config)
-    q_fast, q_ref = Q0.copy(), Q0.copy()
-    for contacts in sequence:
-        a, b = fast.step(q_fast, contacts), ref.step(q_ref, contacts)
-        assert_same_step(a, b)
-        # Same motion on both sides keeps the comparison exact over the whole sequence.
-        q_fast = q_fast + config.dt * a.qdot
-        q_ref = q_fast.copy()
+    run_against_reference(WholeBodyController(FakeKinematics(), config),
+                          RefController(FakeKinematics(), config), Q0, sequence)
+
+
+@settings(max_examples=examples(1), suppress_health_check=[HealthCheck.too_slow])
+@given(configs(), st.integers(0, 2**31 - 1), st.sampled_from([5.0, 40.0]),
+       st.sampled_from(["fake", "robot"]))
+def test_step_with_safety_lead_and_region_rules_equals_reference(
+        config: ControllerConfig, seed: int, force_scale: float, robot: str) -> None:
+    """Every rule around the paper's equations against the reference: safety states, regain
+    budget, lead moment and leash, Ω_d window and hysteresis — on the independent D-H robot
+    (the Python step) and on the real one (the compiled step)."""
+    sequence = touch_sequence(np.random.default_rng(seed), 80, force_scale, config.dt)
+    kinematics = FakeKinematics if robot == "fake" else RobotKinematics
+    run_against_reference(WholeBodyController(kinematics(), config),
+                          RefController(kinematics(), config), Q0, sequence)
+
+
+def test_desired_force_without_contact_stops_after_the_regain_distance() -> None:
+    """The falsifying example hypothesis found (``shared/repro/equivalence_falsifying_example
+    .txt``): the left forearm, never touched, carries a 4 N desired force while a 19 N touch on
+    the upper arm slides and stops. The robot's motion carries the forearm 0.15 m (the regain
+    distance) in 48 periods: its task must then stop (contact lost) — the old reference had no
+    contact safety and kept pushing, 0.08 rad/s apart from the production step."""
+    reference = (1.0, -6.957587728774077e-55, 1.334996053504775e-54, -6.957587728774077e-55,
+                 0.5728002514355479, 0.8196949871478861, -1.334996053504775e-54,
+                 -0.8196949871478861, 0.5728002514355479, 0.22604997832140739,
+                 -0.4044630622503743, -0.9545119926274008)
+    forearm_ref = (0.7347671663923288, -0.6783193997722825, -5.5536998514144894e-05,
+                   0.6783193997722825, 0.7347671681702954, -2.1715780784352928e-05,
+                   5.5536998514144894e-05, -2.1715780784352928e-05, 0.9999999982220333,
+                   -2.220446049250313e-16, -0.4974022627774438, 0.9504249869850798)
+    box = ((-0.3, -0.1, -0.1), (0.0, 0.1, 0.1))
+    links = (LinkTaskConfig("left_upper_arm_link", WHOLE_BODY, reference=reference),
+             LinkTaskConfig("left_forearm_link", WALTZ, desired_force=(4.0, 0.0, 0.0),
+                            reference=forearm_ref, desired_region=box),
+             LinkTaskConfig("right_forearm_link", CONTACT_CENTRING, desired_region=box))
+    config = ControllerConfig(links=links, b=40.0)
+    link = "left_upper_arm_link"
+    sequence: list[dict[str, ContactState]] = []
+    for k in range(15):
+        c = [-0.15, 0.0, 0.05 + k * 0.003657522253428563]
+        sequence.append({link: ContactState(link, k, True, c, [19.14164927447924, 0.0, 0.0],
+                                            [0.0, 0.0, 0.0], c, c, 9)})
+    sequence += [{} for _ in range(40)]
+    results = run_against_reference(WholeBodyController(FakeKinematics(), config),
+                                    RefController(FakeKinematics(), config), Q0, sequence)
+    forearm = [r.tasks[1] for r in results]
+    lost = [k for k, t in enumerate(forearm) if t.safety is Safety.CONTACT_LOST]
+    assert lost and lost[0] == 47, lost[:3]
+    assert all(t.phase is Phase.INACTIVE and not np.any(t.target) for t in forearm[47:])
 
 
 def test_fast_step_equals_reference_on_the_real_robot() -> None:

@@ -1,10 +1,13 @@
 """Straightforward numpy reference of the control step (test-only).
 
-An array-per-operation implementation of (10)–(23) and Algorithm 1, written independently of the
-float code of :mod:`wholebody_controller.contact_task` and :mod:`wholebody_controller.controller`:
-its SO(3) maps come from scipy (``wbc_rotations``), not from ``so3.py``, so an error in a
-production coefficient cannot hide in both. It is the oracle of ``test_equivalence.py``: on random
-inputs the fast path must agree with it to 1e-9. Readability over speed.
+An array-per-operation implementation of (10)–(23), Algorithm 1 and everything the controller
+adds around them — the contact safety (graded force response, regain budget of a desired force),
+the lead moment and carried reference, the desired region's onset window and hysteresis —
+written independently of the production step: its SO(3) maps come from scipy
+(``wbc_rotations``), not from ``so3.py``, and every rule is written here again from the
+documentation (module docstrings of ``contact_safety``, ``following``, ``region``), so an error
+in a production rule cannot hide in both. It is the oracle of ``test_equivalence.py``: on random
+inputs the production step must agree with it to 1e-9. Readability over speed.
 """
 
 from __future__ import annotations
@@ -20,12 +23,13 @@ from wbc_rotations import exp_rotvec, log_rotation, world_angular_velocity
 from phri_common.records import ContactState
 from wholebody_controller.admittance import discretise
 from wholebody_controller.config import ControllerConfig, LinkTaskConfig, diag6
+from wholebody_controller.contact_safety import Safety, SafetyConfig
 from wholebody_controller.contact_task import Phase
 from wholebody_controller.controller import KinematicsModel
+from wholebody_controller.following import FOLD_ANGLE, LEASH_ANGLE
 from wholebody_controller.qp import QPProblem, QPSolver, build_qp, make_solver, velocity_bounds
 
 Array = NDArray[np.float64]
-_ZERO3 = np.zeros(3)
 
 
 class RefAdmittance:
@@ -41,6 +45,43 @@ class RefAdmittance:
         self.state = self.phi @ self.state + self.gamma @ wrench
 
 
+class RefGuard:
+    """Graded response to ‖f‖: fade from a·F to F, yield at F until ‖f‖ < r·F."""
+
+    def __init__(self, limit: float, safety: SafetyConfig) -> None:
+        self.limit, self.safety = limit, safety
+        self.yielding = False
+
+    def update(self, force: float) -> float:
+        """The approach scale s of this cycle's force [N]."""
+        threshold = self.safety.reset_ratio * self.limit if self.yielding else self.limit
+        self.yielding = force >= threshold
+        if self.yielding:
+            return 0.0
+        start = self.safety.fade_start * self.limit
+        return 1.0 if force <= start else float(np.clip((self.limit - force)
+                                                         / (self.limit - start), 0.0, 1.0))
+
+
+class RefRegain:
+    """A desired force may act without contact for regain_distance of travel and regain_time."""
+
+    def __init__(self, safety: SafetyConfig) -> None:
+        self.safety = safety
+        self.travel, self.periods, self.exhausted = 0.0, 0, False
+
+    def update(self, in_contact: bool, travel: float, dt: float) -> bool:
+        if in_contact:
+            self.travel, self.periods, self.exhausted = 0.0, 0, False
+            return True
+        self.travel += travel
+        self.periods += 1
+        if (self.travel > self.safety.regain_distance
+                or self.periods * dt > self.safety.regain_time + 1e-9):
+            self.exhausted = True
+        return not self.exhausted
+
+
 @dataclass
 class RefOutput:
     phase: Phase
@@ -54,26 +95,164 @@ class RefOutput:
     deflection: Array
     deflection_velocity: Array
     in_contact: bool
+    safety: Safety
+
+
+class RefRegion:
+    """Ω_d: locked at onset (Ω_i + margin, or the user's), grown over the onset window, and the
+    track force (11) with each face behind a Schmitt trigger of width h."""
+
+    def __init__(self, link: LinkTaskConfig, cc: ControllerConfig) -> None:
+        self.user = link.desired_region
+        self.margin, self.window, self.h, self.dt = (cc.region_margin, cc.region_window,
+                                                     cc.region_hysteresis, cc.dt)
+        self.reset()
+
+    def reset(self) -> None:
+        self.lo: Array | None = None
+        self.hi: Array | None = None
+        self.periods = 0
+        self.engaged = np.zeros((2, 3), dtype=bool)  # [+faces, −faces] × xyz
+
+    def update(self, lo: Array, hi: Array) -> None:
+        if self.lo is None:
+            self.periods = 0
+            if self.user is not None:
+                self.lo, self.hi = np.array(self.user[0], float), np.array(self.user[1], float)
+            else:
+                self.lo, self.hi = lo - self.margin, hi + self.margin
+        elif self.user is None and self.periods * self.dt < self.window - 1e-12:
+            assert self.hi is not None
+            self.lo, self.hi = np.minimum(self.lo, lo - self.margin), \
+                np.maximum(self.hi, hi + self.margin)
+        self.periods += 1
+
+    def mu(self, lo: Array, hi: Array) -> Array:
+        if self.lo is None or self.hi is None:
+            return np.zeros(3)
+        past = np.array([hi - self.hi, self.lo - lo])  # beyond the + and the − faces
+        if self.h == 0.0:
+            on = past > 0.0
+        else:
+            self.engaged = np.where(past <= 0.0, False, np.where(past > self.h, True,
+                                                                 self.engaged))
+            on = self.engaged
+        return np.where(on[0], past[0], 0.0) - np.where(on[1], past[1], 0.0)
 
 
 class RefTask:
-    """Algorithm 1 and (10)–(20) of one link, numpy arrays throughout."""
+    """One link: contact safety, Algorithm 1, Ω_d, (10)–(20), lead moment and leash."""
 
     def __init__(self, config: LinkTaskConfig, cc: ControllerConfig) -> None:
-        self.config = config
+        self.config, self.safety = config, cc.safety
         self.k_eta, self.b, self.k_p, self.psi_thr = cc.k_eta, cc.b, cc.k_p, cc.psi_thr
-        self.margin, self.dt = cc.region_margin, cc.dt
+        self.dt, self.lead = cc.dt, cc.lead_moment
+        self.carry = cc.lead_moment and not any(config.admittance.stiffness[3:6])
+        assert config.force_limit is not None
+        self.guard = RefGuard(config.force_limit, cc.safety)
+        self.regain = RefRegain(cc.safety)
+        self.region = RefRegion(config, cc)
         self.adm = RefAdmittance(config, cc.dt)
         self.psi_prev = 0.0
         self.point = np.zeros(3)
         self.had_contact = False
+        self.last_pos: Array | None = None
         self.ref_rot: Array | None = None
         self.ref_pos: Array | None = None
-        self.dmin: Array | None = None
-        self.dmax: Array | None = None
+
+    def forget(self) -> None:
+        """Admittance at rest and Algorithm 1 inactive (nothing locked)."""
+        self.adm.state = np.zeros(12)
+        self.psi_prev = 0.0
+        self.ref_rot = self.ref_pos = None
+
+    def contact_safety(self, contact: ContactState, pos: Array) -> tuple[float, float]:
+        """(approach scale, desired-force scale) of this cycle."""
+        force = np.linalg.norm(contact.force) if contact.in_contact else 0.0
+        was_yielding = self.guard.yielding
+        scale = self.guard.update(float(force))
+        if was_yielding and not self.guard.yielding:
+            self.forget()
+        gate = True
+        if any(self.config.desired_force):
+            travel = 0.0 if self.last_pos is None else float(np.linalg.norm(pos - self.last_pos))
+            self.last_pos = pos.copy()
+            gate = self.regain.update(bool(contact.in_contact), travel, self.dt)
+        return scale, scale if gate else 0.0
+
+    def wrench_of(self, contact: ContactState, rot: Array, yaw: float,
+                  desired_scale: float) -> tuple[Array, Array]:
+        """(12) plus the scaled desired force, and ⁰μ (world) [m]."""
+        wrench, mu = np.zeros(6), np.zeros(3)
+        if contact.in_contact:
+            force = np.asarray(contact.force, dtype=np.float64)
+            mu_local = self.region.mu(contact.region_min, contact.region_max)
+            torque = np.asarray(contact.torque, dtype=np.float64)
+            if self.lead:
+                middle = 0.5 * (contact.region_min + contact.region_max)
+                torque = torque + np.cross(self.point - middle, force)
+            mu = rot @ mu_local
+            wrench[0:3] = rot @ (force + self.k_eta * mu_local)
+            wrench[3:6] = rot @ torque
+        if desired_scale > 0.0 and any(self.config.desired_force):
+            c, s = math.cos(yaw), math.sin(yaw)
+            wrench[0:3] += desired_scale * (np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+                                            @ np.asarray(self.config.desired_force, float))
+        return wrench, mu
+
+    def leash(self, rot: Array) -> None:
+        """Carry the reference: re-base when R_d leads R_i by more than the leash, fold the
+        deflection into it when it passes the fold angle."""
+        assert self.ref_rot is not None
+        x_w, v_w = self.adm.state[3:6].copy(), self.adm.state[9:12].copy()
+        desired = exp_rotvec(x_w) @ self.ref_rot
+        e = log_rotation(desired @ rot.T)
+        if np.linalg.norm(e) > LEASH_ANGLE:
+            self.ref_rot = exp_rotvec(LEASH_ANGLE * e / np.linalg.norm(e)) @ rot
+        elif np.linalg.norm(x_w) > FOLD_ANGLE:
+            self.ref_rot = desired
+        else:
+            return
+        self.adm.state[9:12] = world_angular_velocity(x_w, v_w)
+        self.adm.state[3:6] = 0.0
+
+    def velocities(self, rot: Array, pos: Array, rate: Array | None) -> tuple[Array, Array]:
+        """(14), (16)–(20): the QP target and the control velocity."""
+        assert self.ref_rot is not None and self.ref_pos is not None
+        defl, dv = self.adm.state[0:6], self.adm.state[6:12]
+        rot_d = exp_rotvec(defl[3:6]) @ self.ref_rot
+        omega_d = world_angular_velocity(defl[3:6], dv[3:6])
+        rd_p = rot_d @ self.point
+        target = np.zeros(6)
+        target[0:3] = (self.k_p * (self.ref_pos + defl[0:3] - pos + rd_p - rot @ self.point)
+                       + dv[0:3] + np.cross(omega_d, rd_p))
+        target[3:6] = self.k_p * log_rotation(rot_d @ rot.T) + omega_d
+        control = target.copy()
+        if rate is not None:
+            control[0:3] += rot_d @ rate
+            target[0:3] += rot_d @ rate - rot @ rate
+        return target, control
+
+    def respond(self, contact: ContactState, rot: Array, scale: float, target: Array,
+                control: Array) -> tuple[Array, Array]:
+        """Yield along n̂ at the yield speed, or keep only s of the approach along −n̂."""
+        force = np.asarray(contact.force, dtype=np.float64)
+        if not contact.in_contact or np.linalg.norm(force) == 0.0:
+            return target, control
+        n = rot @ (force / np.linalg.norm(force))
+        if self.guard.yielding:
+            away = np.concatenate([self.safety.yield_speed * n, np.zeros(3)])
+            return away, away.copy()
+        out = []
+        for v in (target, control):
+            v = v.copy()
+            v[0:3] -= (1.0 - scale) * min(float(v[0:3] @ n), 0.0) * n
+            out.append(v)
+        return out[0], out[1]
 
     def update(self, contact: ContactState, rot: Array, pos: Array, yaw: float) -> RefOutput:
         in_contact = bool(contact.in_contact)
+        scale, desired_scale = self.contact_safety(contact, pos)
         rate = None
         if in_contact:
             center = np.asarray(contact.center, dtype=np.float64)
@@ -81,23 +260,9 @@ class RefTask:
                 rate = (center - self.point) / self.dt
             self.point = center
         elif self.had_contact:
-            self.dmin = self.dmax = None
+            self.region.reset()
         self.had_contact = in_contact
-        point = self.point
-        mu = np.zeros(3)
-        wrench = np.zeros(6)
-        if in_contact:
-            local_force = np.asarray(contact.force, dtype=np.float64)
-            if self.dmin is not None and self.dmax is not None:
-                mu_local = (np.maximum(contact.region_max - self.dmax, 0.0)
-                            - np.maximum(self.dmin - contact.region_min, 0.0))
-                mu = rot @ mu_local
-                local_force = local_force + self.k_eta * mu_local
-            wrench[0:3] = rot @ local_force
-            wrench[3:6] = rot @ contact.torque
-        fx, fy, fz = self.config.desired_force
-        c, s = math.cos(yaw), math.sin(yaw)
-        wrench[0:3] += np.array([c * fx - s * fy, s * fx + c * fy, fz])
+        wrench, mu = self.wrench_of(contact, rot, yaw, desired_scale)
 
         self.adm.step(wrench)
         lock = self.config.priority_lock
@@ -114,39 +279,32 @@ class RefTask:
         if deactivated:
             self.adm.state = np.zeros(12)
             self.ref_rot = self.ref_pos = None
-            self.dmin = self.dmax = None
+            self.region.reset()
         self.psi_prev = psi_raw
         active = psi_raw >= thr and self.ref_rot is not None
-        if active and in_contact and self.dmin is None:
-            user = self.config.desired_region
-            if user is not None:
-                self.dmin, self.dmax = np.asarray(user[0], float), np.asarray(user[1], float)
-            else:
-                self.dmin = contact.region_min - self.margin
-                self.dmax = contact.region_max + self.margin
+        if active and self.carry:
+            self.leash(rot)
+        if active and in_contact:
+            self.region.update(contact.region_min, contact.region_max)
         if not active:
             self.adm.state[0:6] = 0.0
-        defl = self.adm.state[0:6].copy()
-        dv = self.adm.state[6:12].copy()
-        target = np.zeros(6)
-        control = np.zeros(6)
+        target, control = np.zeros(6), np.zeros(6)
         phase = Phase.INACTIVE
         if active:
-            assert self.ref_rot is not None and self.ref_pos is not None
             phase = Phase.ACTIVATING if activating else (
                 Phase.ACTIVE if in_contact or lock is not None else Phase.DEACTIVATING)
-            rot_d = exp_rotvec(defl[3:6]) @ self.ref_rot
-            omega_d = world_angular_velocity(defl[3:6], dv[3:6])
-            rd_p = rot_d @ point
-            target[0:3] = (self.k_p * (self.ref_pos + defl[0:3] - pos + rd_p - rot @ point)
-                           + dv[0:3] + np.cross(omega_d, rd_p))
-            target[3:6] = self.k_p * log_rotation(rot_d @ rot.T) + omega_d
-            control = target.copy()
-            if rate is not None:
-                control[0:3] += rot_d @ rate
-                target[0:3] += rot_d @ rate - rot @ rate
-        return RefOutput(phase, max(psi_raw, thr), psi_raw, point.copy(), target, control, wrench,
-                         self.k_eta * mu, defl, dv, in_contact)
+            target, control = self.velocities(rot, pos, rate)
+        if scale < 1.0:
+            target, control = self.respond(contact, rot, scale, target, control)
+        elif self.regain.exhausted:
+            self.forget()
+            target, control = np.zeros(6), np.zeros(6)
+        psi = 1.0 if self.guard.yielding else (psi_raw if psi_raw > thr else thr)
+        safety = (Safety.YIELDING if self.guard.yielding else Safety.FADING if scale < 1.0
+                  else Safety.CONTACT_LOST if self.regain.exhausted else Safety.OK)
+        return RefOutput(phase, psi, psi_raw, self.point.copy(), target, control, wrench,
+                         self.k_eta * mu, self.adm.state[0:6].copy(),
+                         self.adm.state[6:12].copy(), in_contact, safety)
 
 
 @dataclass
@@ -173,7 +331,9 @@ class RefController:
             i = names.index(rng.joint)
             self.lower[i] = max(self.lower[i], rng.lower)
             self.upper[i] = min(self.upper[i], rng.upper)
-        self.vmax = np.minimum(np.asarray(kin.velocity_limits, float), config.velocity_limit)
+        self.vmax = np.minimum(np.minimum(np.asarray(kin.velocity_limits, float),
+                                          config.velocity_limit),
+                               np.asarray(config.velocity_limits, float))
 
     def step(self, q: Array, contacts: Mapping[str, ContactState]) -> RefStep:
         self.kin.update(q)
