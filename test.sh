@@ -17,8 +17,19 @@ if [ "$#" -gt 0 ]; then
     echo "== pytest"; exec python -m pytest "$@"
 fi
 mapfile -t PACKAGES < <(for f in */package.xml; do dirname "$f"; done)
+# A plain (copying) build, as users and the Docker image build: the tests then import the
+# installed copies and find their data in install/<pkg>/share, which --symlink-install would hide.
 echo "== colcon build (${#PACKAGES[@]} packages)"
-colcon build --symlink-install --event-handlers console_cohesion- summary+
+colcon build --event-handlers console_cohesion- summary+
+# The installed copies are new files to numba's cache: compile their kernels once here, not in
+# several test processes at a time.
+echo "== numba kernels of the installed packages"
+(
+    set +u  # colcon's setup scripts read unset variables
+    # shellcheck disable=SC1091
+    . install/local_setup.sh
+    python -m phri_bringup.compile_kernels
+)
 echo "== colcon test"
 rm -f build/*/pytest.xml
 colcon_rc=0
