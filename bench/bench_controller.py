@@ -4,8 +4,8 @@
    ``estimate``) followed by :meth:`WholeBodyController.step` with all three links in contact
    (three admittances + life-cycles, kinematics update + three contact-centre Jacobians, QP build
    and solve), for each QP backend; the same with 3 × 10,000 taxels; the controller step with
-   its Python kernel (``kernel="python"``, the reference before the compiled one) for a same-run
-   before/after; then the breakdown into stages (the compiled step's and the Python step's),
+   its Python kernel (``kernel="python"``: the same functions interpreted); then the breakdown
+   into stages (MuJoCo's kinematics, the QP solve),
    the estimation with the numpy reference kernel (``kernel="numpy"``, the code before the
    compiled one) for a same-run before/after, and the straightforward numpy reference step
    (``wholebody_controller/test/wbc_reference.py``, the implementation before the optimisation)
@@ -37,6 +37,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
+import mujoco
 import numpy as np
 
 from contact_estimation.estimator import ContactEstimator, EstimatorConfig
@@ -47,7 +48,7 @@ from skin_driver.sim_board import pressed_block
 from wholebody_controller.config import SKIN_LINKS, ControllerConfig
 from wholebody_controller.controller import StepResult, WholeBodyController
 from wholebody_controller.kinematics import RobotKinematics
-from wholebody_controller.qp import QPBuilder, QPSolver, make_solver
+from wholebody_controller.qp import make_solver
 
 Q_HOME = np.array([0.0, 0.0, 0.0,
                    0.3, -1.2, 1.5, -1.0, -1.57, 0.0,
@@ -154,7 +155,7 @@ def controller_cases(repeats: int) -> dict[str, Case]:
     cases["full step: estimation 3×2,000 + controller, daqp"] = stepper("daqp", 2_000)
     cases["full step: estimation 3×2,000 + controller, osqp"] = stepper("osqp", 2_000)
     cases["full step: estimation 3×10,000 + controller, daqp"] = stepper("daqp", 10_000)
-    cases["full step, controller with the python kernel (before), 3×2,000"] = stepper(
+    cases["full step, controller with the python kernel (interpreted), 3×2,000"] = stepper(
         "daqp", 2_000, step_kernel="python")
     cases["full step, estimation, numpy reference sums, 3×2,000"] = stepper(
         "daqp", 2_000, "numpy")
@@ -165,59 +166,9 @@ def controller_cases(repeats: int) -> dict[str, Case]:
     cases["  contact estimation, 3 × 2,000 taxels, numpy reference sums"] = (
         numpy_skin[2_000].estimate)
     cases["  controller step (3 links in contact), daqp"] = stepper("daqp", None)
-    cases["  controller step, python kernel (before), daqp"] = stepper(
+    cases["  controller step, python kernel (interpreted), daqp"] = stepper(
         "daqp", None, step_kernel="python")
     cases.update(compiled_breakdown(contact_seq))
-
-    # Breakdown of the Python controller step (daqp), stage by stage as step() runs them.
-    kin = RobotKinematics()
-    ctl = WholeBodyController(kin, ControllerConfig(kernel="python"))
-    res = ctl.step(Q_HOME, contact_seq[0])
-    points = [task.jacobian_point for task in ctl.tasks]
-    # The bench's own buffers, shaped as the controller's (stacked 6×15 blocks, 15×15 rotation).
-    raw_jacobian = np.zeros((6 * len(SKIN_LINKS), 15))
-    blocks = [raw_jacobian[6 * i : 6 * i + 6] for i in range(len(SKIN_LINKS))]
-    base_rotation = np.eye(15)
-
-    def kinematics(_k: int) -> None:
-        kin.update(Q_HOME)
-        for link, point, block in zip(SKIN_LINKS, points, blocks, strict=True):
-            kin.link_pose(link)
-            kin.point_jacobian(link, point, out=block)
-
-    cases["    kinematics: update + 3 poses + 3 point Jacobians"] = kinematics
-    kin.update(Q_HOME)
-    poses = []
-    for link in SKIN_LINKS:
-        rot, pos = kin.link_pose(link)
-        poses.append((rot.ravel().tolist(), pos.tolist()))
-
-    def tasks(k: int) -> None:
-        contacts = contact_seq[k]
-        for task, (rot, pos) in zip(ctl.tasks, poses, strict=True):
-            task.step(contacts[task.config.link], rot, pos, 0.0)
-
-    cases["    3 tasks: (10)-(20) + Algorithm 1"] = tasks
-    target = np.concatenate([t.target for t in res.tasks])
-    weights = np.repeat([2.0 * max(t.psi, 0.3) for t in res.tasks], 6)[:, None]
-    builder = QPBuilder(6 * len(SKIN_LINKS), 15)
-    builder.set_limits(ctl.position_lower, ctl.position_upper, ctl.velocity_lower,
-                       ctl.velocity_upper, ctl.config.horizon, ctl.config.epsilon)
-
-    def build(_k: int) -> None:
-        jacobian = np.dot(raw_jacobian, base_rotation)
-        builder.build(Q_HOME, target, weights, jacobian)
-
-    cases["    QP build (22)-(23)"] = build
-    problem = builder.build(Q_HOME, target, weights,
-                            np.dot(raw_jacobian, base_rotation))
-    for name in ("daqp", "osqp"):
-        solver = make_solver(name)
-
-        def solve(_k: int, s: QPSolver = solver) -> None:
-            s.solve(problem)
-
-        cases[f"    QP solve, {name}"] = solve
 
     # The straightforward numpy step (the implementation before the optimisation).
     sys.path.insert(0, str(ROOT / "wholebody_controller" / "test"))
@@ -235,21 +186,21 @@ def controller_cases(repeats: int) -> dict[str, Case]:
 
 
 def compiled_breakdown(contact_seq: list[dict[str, ContactState]]) -> dict[str, Case]:
-    """The compiled step's parts (``kernel="numba"``): MuJoCo calls + :func:`step_kernel`
-    (tasks, Jacobians, QP build) with its packing, then the daqp solve of its problem."""
-    ctl = WholeBodyController(RobotKinematics())
-    compiled = ctl._compiled
-    assert compiled is not None
+    """The compiled step's parts: MuJoCo's kinematics alone, the QP solve alone (daqp) — the
+    rest of a step is the one kernel call (tasks, Jacobians, QP build) and its packing."""
+    kin = RobotKinematics()
+    ctl = WholeBodyController(kin)
     res = ctl.step(Q_HOME, contact_seq[0])
     solver = make_solver("daqp")
 
-    def kernel(k: int) -> None:
-        compiled.step(Q_HOME, contact_seq[k])
+    def kinematics(_k: int) -> None:
+        kin.data.qpos[:] = Q_HOME
+        mujoco.mj_kinematics(kin.model, kin.data)
 
     def solve(_k: int) -> None:
         solver.solve(res.problem)
 
-    return {"    compiled: kinematics + tasks + Jacobians + QP build": kernel,
+    return {"    compiled: MuJoCo kinematics (mj_kinematics)": kinematics,
             "    compiled: QP solve, daqp": solve}
 
 

@@ -19,7 +19,10 @@ from __future__ import annotations
 
 import math
 
+from phri_common.jit import jitable
 
+
+@jitable
 def base_to_world(yaw: float, vx: float, vy: float) -> tuple[float, float]:
     """World components (x', y') of the base-frame planar vector (v_x, v_y): ``R_z(yaw) · v``.
 
@@ -34,6 +37,7 @@ def base_to_world(yaw: float, vx: float, vy: float) -> tuple[float, float]:
     return c * vx - s * vy, s * vx + c * vy
 
 
+@jitable
 def world_to_base(yaw: float, x: float, y: float) -> tuple[float, float]:
     """Base-frame components of the world planar vector (x, y): ``R_z(yaw)ᵀ · v``, the inverse
     of :func:`base_to_world`.

@@ -1,4 +1,4 @@
-"""Contact safety (issue 11): the graded response to the contact force against the body region's
+"""Contact safety: the graded response to the contact force against the body region's
 limit, contact-gated desired force with a bounded regain, in the pure pieces, in one task and in
 closed loop with a compliant hand."""
 
@@ -17,15 +17,15 @@ from phri_common.records import ContactState
 from phri_description.description import SKIN_LINKS
 from wholebody_controller.config import WALTZ, AdmittanceGains, ControllerConfig, LinkTaskConfig
 from wholebody_controller.contact_safety import (
-    ForceGuard,
-    RegainBudget,
     Safety,
     SafetyConfig,
     approach_scale,
     limit_approach,
 )
-from wholebody_controller.contact_task import ContactTask
 from wholebody_controller.controller import KinematicsModel, WholeBodyController
+from wholebody_controller.task_rows import N_STATE, link_params
+from wholebody_controller.task_step import guard_update, regain_update
+from wholebody_controller.tasks import ContactTask
 
 LINK = "left_forearm_link"
 ROT = exp_rotvec(np.array([0.3, -0.5, 1.1]))
@@ -61,28 +61,33 @@ def test_limit_approach_only_shrinks_the_part_towards_the_contact(
         assert along_out == pytest.approx(s * along, abs=1e-12)
 
 
+def _rows(link: LinkTaskConfig, safety: SafetyConfig) -> tuple[np.ndarray, np.ndarray]:
+    """A fresh state row and the parameter row of ``link`` (100 Hz)."""
+    return np.zeros(N_STATE), link_params(link, ControllerConfig(links=(link,), safety=safety))
+
+
 def test_force_guard_yields_at_the_limit_with_hysteresis() -> None:
-    guard = ForceGuard(110.0, 220.0, SafetyConfig(fade_start=0.5, reset_ratio=0.5))
-    assert guard.update(50.0) == 1.0 and not guard.yielding
-    assert 0.0 < guard.update(100.0) < 1.0 and not guard.yielding
-    assert guard.update(110.0) == 0.0 and guard.yielding
-    assert guard.update(60.0) == 0.0 and guard.yielding  # above r·F = 55 N: still yielding
-    assert guard.update(54.0) == 1.0 and not guard.yielding
-    assert guard.peak == 110.0 and not guard.transient_exceeded
-    guard.update(230.0)
-    assert guard.transient_exceeded
-    with pytest.raises(ValueError, match="transient"):
-        ForceGuard(110.0, 100.0, SafetyConfig())
+    s, p = _rows(LinkTaskConfig(LINK, force_limit=110.0, transient_force_limit=220.0),
+                 SafetyConfig(fade_start=0.5, reset_ratio=0.5))
+    task = ContactTask(LinkTaskConfig(LINK), state=s, params=p)
+    assert guard_update(s, p, 50.0) == 1.0 and not task.yielding
+    assert 0.0 < guard_update(s, p, 100.0) < 1.0 and not task.yielding
+    assert guard_update(s, p, 110.0) == 0.0 and task.yielding
+    assert guard_update(s, p, 60.0) == 0.0 and task.yielding  # above r·F = 55 N: still yielding
+    assert guard_update(s, p, 54.0) == 1.0 and not task.yielding
+    assert task.peak_force == 110.0 and not task.transient_exceeded
+    guard_update(s, p, 230.0)
+    assert task.transient_exceeded
 
 
 def test_regain_budget_bounds_distance_and_time() -> None:
-    budget = RegainBudget(SafetyConfig(regain_distance=0.15, regain_time=2.0))
-    assert budget.update(False, 0.1, 0.01) and budget.update(False, 0.04, 0.01)
-    assert not budget.update(False, 0.02, 0.01)  # 0.16 m > 0.15 m
-    assert not budget.update(False, 0.0, 0.01)  # latched until a touch
-    assert budget.update(True, 0.0, 0.01)
-    assert all(budget.update(False, 0.0, 0.01) for _ in range(200))  # 2.00 s
-    assert not budget.update(False, 0.0, 0.01)
+    s, p = _rows(LinkTaskConfig(LINK), SafetyConfig(regain_distance=0.15, regain_time=2.0))
+    assert regain_update(s, p, False, 0.1) and regain_update(s, p, False, 0.04)
+    assert not regain_update(s, p, False, 0.02)  # 0.16 m > 0.15 m
+    assert not regain_update(s, p, False, 0.0)  # latched until a touch
+    assert regain_update(s, p, True, 0.0)
+    assert all(regain_update(s, p, False, 0.0) for _ in range(200))  # 2.00 s at 100 Hz
+    assert not regain_update(s, p, False, 0.0)
 
 
 def test_safety_config_refusals_name_the_field() -> None:
@@ -104,8 +109,7 @@ def test_default_limits_are_the_regions_of_iso_ts_15066() -> None:
 
 # -- one task -------------------------------------------------------------------------------------
 def make_task(**kwargs: object) -> ContactTask:
-    return ContactTask(LinkTaskConfig(LINK, **kwargs),  # type: ignore[arg-type]
-                       k_eta=200.0, b=4.0, k_p=5.0, psi_thr=1e-4, region_margin=0.01, dt=0.01)
+    return ContactTask(LinkTaskConfig(LINK, **kwargs))  # type: ignore[arg-type]
 
 
 def press(force_world: np.ndarray, k: int) -> ContactState:
@@ -202,5 +206,5 @@ def test_never_commands_towards_a_contact_at_or_above_the_limit(forces: list[flo
     push /= np.linalg.norm(push)
     for k, f in enumerate(forces):
         out = step(task, press(f * push, k))
-        if task.guard.yielding:
+        if task.yielding:
             assert float(np.dot(out.target[0:3], push)) > 0.0  # type: ignore[attr-defined]

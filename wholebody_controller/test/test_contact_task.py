@@ -14,13 +14,9 @@ from wbc_rotations import exp_rotvec
 
 from phri_common.records import ContactState
 from wholebody_controller.config import LinkTaskConfig
-from wholebody_controller.contact_task import (
-    ContactTask,
-    Phase,
-    TaskOutput,
-    priority,
-    track_force,
-)
+from wholebody_controller.contact_task import Phase, TaskOutput, priority
+from wholebody_controller.region import track_force
+from wholebody_controller.tasks import ContactTask
 
 LINK = "left_forearm_link"
 ROT = exp_rotvec(np.array([0.3, -0.5, 1.1]))
@@ -41,8 +37,9 @@ def step(task: ContactTask, state: ContactState, rot: np.ndarray, pos: np.ndarra
 
 
 def make_task(**kwargs: object) -> ContactTask:
-    return ContactTask(LinkTaskConfig(LINK, **kwargs),  # type: ignore[arg-type]
-                       k_eta=200.0, b=4.0, k_p=5.0, psi_thr=1e-4, region_margin=0.01, dt=0.01)
+    """A task with Table II's settings (k_η = 200, b = 4, K_p = 5, ψ_thr = 1e-4, 100 Hz) and
+    the margin of VI-A.2."""
+    return ContactTask(LinkTaskConfig(LINK, **kwargs))  # type: ignore[arg-type]
 
 
 # -- (10)–(11) ------------------------------------------------------------------------------------
@@ -152,8 +149,8 @@ def test_psi_rises_with_deflection_velocity_and_falls_back_after_release() -> No
     first_inactive = phases.index(Phase.INACTIVE)
     assert 100 < first_inactive < 200
     assert task.locked_reference is None
-    np.testing.assert_array_equal(task.admittance.deflection_velocity, 0.0)
-    np.testing.assert_array_equal(task.admittance.deflection, 0.0)
+    np.testing.assert_array_equal(task.deflection_velocity, 0.0)
+    np.testing.assert_array_equal(task.deflection, 0.0)
 
 
 def test_push_demands_motion_along_the_push_while_link_is_still() -> None:

@@ -28,6 +28,7 @@ from wholebody_controller.config import (
 from wholebody_controller.contact_task import Phase
 from wholebody_controller.controller import KinematicsModel, StepResult, WholeBodyController
 from wholebody_controller.qp import QPError, QPProblem
+from wholebody_controller.task_rows import P_HYSTERESIS, P_LEAD
 
 ARM = [0.3, -1.2, 1.5, -1.0, -1.57, 0.0]
 Q0 = np.array([0.2, -0.1, 0.4, *ARM, *[-a for a in ARM]])
@@ -234,15 +235,25 @@ def test_configure_keeps_unchanged_tasks_and_switches_solver(kin: KinematicsMode
     assert again.tasks[1].phase is Phase.DEACTIVATING
 
 
-def test_configure_rebuilds_tasks_when_a_task_setting_changes(kin: KinematicsModel) -> None:
-    """Every global a task is built from reaches the tasks on a reconfigure (the lead moment was
-    left out of the "unchanged" check once, so switching it at run time did nothing)."""
+def test_configure_applies_task_settings_and_keeps_state_only_when_unchanged(
+        kin: KinematicsModel) -> None:
+    """Every setting a task steps with reaches its parameter row on a reconfigure (the lead
+    moment was once left out, so switching it at run time did nothing); a link whose settings
+    are unchanged keeps its state, a changed one starts inactive."""
     ctl = WholeBodyController(kin)
-    assert not any(task.lead for task in ctl.tasks)
+    link = "left_forearm_link"
+    touch = ContactState(link, 0, True, CENTER, np.array([0.0, 0.0, -8.0]), np.zeros(3),
+                         CENTER - 0.01, CENTER + 0.01, 9)
+    for _ in range(5):
+        ctl.step(Q0, {link: touch})
+    touched = ctl.state.copy()
+    assert np.any(touched[1])
+    ctl.configure(replace(ctl.config, epsilon=0.2))  # a QP setting: the tasks carry on
+    np.testing.assert_array_equal(ctl.state, touched)
     ctl.configure(replace(ctl.config, lead_moment=True))
-    assert all(task.lead for task in ctl.tasks)
+    assert all(ctl.params[:, P_LEAD] == 1.0) and not np.any(ctl.state)
     ctl.configure(replace(ctl.config, region_hysteresis=0.005))
-    assert all(task.region.hysteresis == 0.005 for task in ctl.tasks)
+    assert all(ctl.params[:, P_HYSTERESIS] == 0.005)
 
 
 class FailingSolver:

@@ -8,9 +8,9 @@ A failure prints the example (hypothesis) and its ``@reproduce_failure`` blob; t
 the default profile are derandomized, ``--hypothesis-profile=deep`` draws many more
 (``docs/wholebody_controller.md``, "Tests").
 
-Also the pieces on their own: the decoupled admittance step against ``Φ s + Γ w``, and
-:class:`QPBuilder` against :func:`velocity_bounds` + :func:`build_qp` (the SO(3) maps are
-checked against scipy in ``test_so3.py``).
+Also the pieces on their own: the admittance step against ``Φ s + Γ w``, and
+the QP assembly against the reference's (the SO(3) maps are checked against scipy in
+``test_so3.py``).
 """
 
 from __future__ import annotations
@@ -22,20 +22,19 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from wbc_fake_kinematics import FakeKinematics
-from wbc_reference import RefController
+from wbc_reference import RefController, ref_build_qp, ref_velocity_bounds
 from wbc_rotations import exp_rotvec
 from wbc_scenarios import configs, touch_sequence
 from wbc_tolerances import GAINS, QP_TOL, TOL, close
 
 from phri_common.records import ContactState
 from phri_common.testing import examples
-from wholebody_controller.admittance import Admittance, discretise
+from wholebody_controller.admittance import admittance_step, discretise, transition
 from wholebody_controller.config import (
     CONTACT_CENTRING,
     SKIN_LINKS,
     WALTZ,
     WHOLE_BODY,
-    AdmittanceGains,
     ControllerConfig,
     LinkTaskConfig,
     dance_ranges,
@@ -44,7 +43,7 @@ from wholebody_controller.contact_safety import Safety
 from wholebody_controller.contact_task import Phase
 from wholebody_controller.controller import StepResult, WholeBodyController
 from wholebody_controller.kinematics import RobotKinematics
-from wholebody_controller.qp import QPBuilder, build_qp, velocity_bounds
+from wholebody_controller.qp import build_qp, velocity_bounds
 
 Q0 = np.array([0.2, -0.1, 0.4, 0.3, -1.2, 1.5, -1.0, -1.57, 0.0,
                -0.3, 1.2, -1.5, 1.0, 1.57, 0.0])
@@ -212,43 +211,28 @@ def test_fast_step_equals_reference_on_the_real_robot() -> None:
 
 
 # -- pieces ---------------------------------------------------------------------------------------
-@pytest.mark.parametrize("gains", GAINS)
-def test_decoupled_admittance_equals_matrix_step(gains: AdmittanceGains) -> None:
-    lam, d, k = (np.diag(np.asarray(v, dtype=float))
-                 for v in (gains.inertia, gains.damping, gains.stiffness))
-    adm = Admittance(lam, d, k, 0.002)
-    assert adm.decoupled
-    phi, gamma = discretise(lam, d, k, 0.002)
-    rng = np.random.default_rng(1)
-    state = np.zeros(12)
-    for _ in range(300):
-        w = rng.normal(scale=20.0, size=6)
-        adm.step(w)
-        state = phi @ state + gamma @ w
-        np.testing.assert_allclose(np.concatenate([adm.deflection, adm.deflection_velocity]),
-                                   state, rtol=TOL, atol=1e-12)
-
-
-def test_coupled_admittance_uses_the_full_matrices() -> None:
+@pytest.mark.parametrize("coupled", [False, True])
+def test_admittance_step_is_phi_s_plus_gamma_w(coupled: bool) -> None:
     rng = np.random.default_rng(2)
-    m = rng.normal(size=(6, 6))
-    lam = m @ m.T + 6.0 * np.eye(6)  # SPD, not diagonal
-    d = 30.0 * np.eye(6) + 0.5 * np.ones((6, 6))
-    adm = Admittance(lam, d, np.zeros((6, 6)), 0.01)
-    assert not adm.decoupled
-    phi, gamma = discretise(lam, d, np.zeros((6, 6)), 0.01)
-    state = np.zeros(12)
+    if coupled:
+        m = rng.normal(size=(6, 6))
+        lam = m @ m.T + 6.0 * np.eye(6)  # SPD, not diagonal
+        d = 30.0 * np.eye(6) + 0.5 * np.ones((6, 6))
+    else:
+        lam, d = np.diag(rng.uniform(0.1, 1.0, 6)), np.diag(rng.uniform(5.0, 200.0, 6))
+    k = np.zeros((6, 6))
+    phi, gamma = discretise(lam, d, k, 0.01)
+    row, state = np.zeros(12), np.zeros(12)
     for _ in range(50):
         w = rng.normal(scale=5.0, size=6)
-        adm.step(w)
+        admittance_step(row, transition(lam, d, k, 0.01), tuple(w.tolist()))
         state = phi @ state + gamma @ w
-    np.testing.assert_allclose(np.concatenate([adm.deflection, adm.deflection_velocity]), state,
-                               rtol=TOL, atol=1e-12)
+    np.testing.assert_allclose(row, state, rtol=TOL, atol=1e-12)
 
 
 @settings(max_examples=60, deadline=None)
 @given(st.integers(0, 2**31 - 1))
-def test_qp_builder_equals_build_qp(seed: int) -> None:
+def test_qp_assembly_equals_the_reference(seed: int) -> None:
     rng = np.random.default_rng(seed)
     n, tasks = 15, int(rng.integers(1, 5))
     jac = rng.normal(size=(6 * tasks, n))
@@ -260,12 +244,10 @@ def test_qp_builder_equals_build_qp(seed: int) -> None:
         -0.05, 0.05, n)))
     vmax = rng.uniform(0.0, 0.3, n)
     eps, horizon = float(rng.choice([1e-3, 0.1])), float(rng.choice([0.01, 0.15]))
-    lower, upper = velocity_bounds(q, pos_lo, pos_hi, -vmax, vmax, horizon)
-    expected = build_qp([jac], [target], psi.tolist(), eps, lower, upper)
-    builder = QPBuilder(6 * tasks, n)
-    builder.set_limits(pos_lo, pos_hi, -vmax, vmax, horizon, eps)
-    builder.jacobian[...] = jac
-    got = builder.build(q, target, np.repeat(2.0 * psi, 6)[:, None])
+    lower, upper = ref_velocity_bounds(q, pos_lo, pos_hi, -vmax, vmax, horizon)
+    expected = ref_build_qp(jac, target, psi.tolist(), eps, lower, upper)
+    got = build_qp([jac], [target], psi.tolist(), eps, *velocity_bounds(
+        q, pos_lo, pos_hi, -vmax, vmax, horizon))
     for name in ("hessian", "gradient"):
         np.testing.assert_allclose(getattr(got, name), getattr(expected, name), rtol=1e-12,
                                    atol=1e-12)

@@ -11,9 +11,9 @@ from scipy.spatial.transform import Rotation
 from wbc_rotations import exp_rotvec
 
 from phri_common.records import ContactState
-from wholebody_controller.config import LinkTaskConfig
-from wholebody_controller.contact_task import ContactTask
+from wholebody_controller.config import ControllerConfig, LinkTaskConfig
 from wholebody_controller.following import FOLD_ANGLE, LEASH_ANGLE, lead_moment, leash_reference
+from wholebody_controller.tasks import ContactTask
 
 LINK = "left_forearm_link"
 
@@ -102,8 +102,7 @@ def test_leash_carries_a_full_turn_past_the_jacobian_singularity() -> None:
 def _task(lead: bool) -> ContactTask:
     cfg = LinkTaskConfig(LINK, priority_lock=1.0,  # type: ignore[arg-type]
                          admittance=_gains())
-    return ContactTask(cfg, k_eta=200.0, b=4.0, k_p=5.0, psi_thr=1e-4, region_margin=0.01,
-                       dt=0.01, lead=lead)
+    return ContactTask(cfg, ControllerConfig(links=(cfg,), lead_moment=lead))
 
 
 def _gains() -> object:

@@ -96,16 +96,19 @@ def test_task_state_round_trip_keeps_every_field() -> None:
 def test_safety_status_levels() -> None:
     from diagnostic_msgs.msg import DiagnosticStatus
 
-    from wholebody_controller.contact_safety import ForceGuard, Safety, SafetyConfig
+    from wholebody_controller.config import LinkTaskConfig
+    from wholebody_controller.contact_safety import Safety
     from wholebody_controller.messages import safety_status
+    from wholebody_controller.task_step import guard_update
+    from wholebody_controller.tasks import ContactTask
 
-    guard = ForceGuard(110.0, 220.0, SafetyConfig())
-    guard.update(30.0)
-    ok = safety_status("left_forearm_link", Safety.OK, guard, "wbc")
+    task = ContactTask(LinkTaskConfig("left_forearm_link"))
+    guard_update(task.state, task.params, 30.0)
+    ok = safety_status(task, Safety.OK, "wbc")
     assert ok.level == DiagnosticStatus.OK and ok.name == "wbc: contact safety left_forearm_link"
     assert {v.key: v.value for v in ok.values}["force_limit_N"] == "110"
-    assert safety_status("l", Safety.CONTACT_LOST, guard, "w").level == DiagnosticStatus.WARN
-    assert safety_status("l", Safety.YIELDING, guard, "w").level == DiagnosticStatus.ERROR
-    guard.update(250.0)
-    status = safety_status("l", Safety.OK, guard, "w")
+    assert safety_status(task, Safety.CONTACT_LOST, "w").level == DiagnosticStatus.WARN
+    assert safety_status(task, Safety.YIELDING, "w").level == DiagnosticStatus.ERROR
+    guard_update(task.state, task.params, 250.0)
+    status = safety_status(task, Safety.OK, "w")
     assert status.level == DiagnosticStatus.ERROR and "transient" in status.message

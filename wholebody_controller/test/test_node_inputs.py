@@ -122,11 +122,11 @@ def test_a_failed_qp_resets_the_tasks_and_the_next_good_cycle_commands(
     assert controller is not None
     for _ in range(5):
         node.cycle()
-    assert controller.tasks[1].life_cycle.reference is not None  # the pushed link is active
+    assert controller.tasks[1].locked_reference is not None  # the pushed link is active
     solver, controller.solver = controller.solver, FailingSolver()
     assert not moving(node.cycle())
     assert node.qp_failures == 1
-    assert all(t.life_cycle.reference is None for t in controller.tasks)  # reset
+    assert all(t.locked_reference is None for t in controller.tasks)  # reset
     controller.solver = solver
     assert moving(node.cycle())
 

@@ -8,12 +8,50 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from wholebody_controller.region import DesiredRegion, track_force
+from wholebody_controller.config import ControllerConfig, LinkTaskConfig
+from wholebody_controller.region import track_force
+from wholebody_controller.task_rows import (
+    C_IN,
+    C_MAX,
+    C_MIN,
+    N_CONTACT,
+    N_STATE,
+    S_BOX,
+    S_BOX_SET,
+    link_params,
+)
+from wholebody_controller.task_step import region_track_force, region_update
 
 PITCH = 0.0075  # taxel pitch [m]
 LO, HI = (0.16, -0.01, 0.10), (0.20, 0.01, 0.105)
 
 coord = st.floats(-0.3, 0.3)
+
+
+class DesiredRegion:
+    """Ω_d of one link's state row, driven by the step's own functions
+    (:func:`region_update`, :func:`region_track_force`)."""
+
+    def __init__(self, margin: float, window: float, hysteresis: float, dt: float) -> None:
+        config = ControllerConfig(region_margin=margin, region_window=window,
+                                  region_hysteresis=hysteresis, rate_hz=1.0 / dt)
+        self.state = np.zeros(N_STATE)
+        self.params = link_params(LinkTaskConfig("left_forearm_link"), config)
+
+    def update(self, lo: tuple[float, ...], hi: tuple[float, ...]) -> None:
+        contact = np.zeros(N_CONTACT)
+        contact[C_IN] = 1.0
+        contact[C_MIN : C_MIN + 3], contact[C_MAX : C_MAX + 3] = lo, hi
+        region_update(self.state, self.params, contact)
+
+    def track_force(self, lo: tuple[float, ...], hi: tuple[float, ...]) -> tuple[float, ...]:
+        return region_track_force(self.state, self.params, tuple(lo), tuple(hi))
+
+    @property
+    def box(self) -> tuple[tuple[float, ...], tuple[float, ...]] | None:
+        if not self.state[S_BOX_SET]:
+            return None
+        return tuple(self.state[S_BOX : S_BOX + 3]), tuple(self.state[S_BOX + 3 : S_BOX + 6])
 
 
 @given(st.tuples(coord, coord, coord), st.tuples(coord, coord, coord),
@@ -28,6 +66,7 @@ def test_without_deviations_it_is_equation_11(a: tuple[float, ...], b: tuple[flo
     expected = [max(hi[k] - (HI[k] + margin), 0.0) - max((LO[k] - margin) - lo[k], 0.0)
                 for k in range(3)]
     np.testing.assert_allclose(region.track_force(lo, hi), expected, atol=1e-15)
+    assert region.box is not None
     np.testing.assert_allclose(track_force(lo, hi, *region.box), expected, atol=1e-15)
 
 
@@ -77,8 +116,9 @@ def test_the_onset_window_grows_the_desired_region_then_locks_it() -> None:
     assert region.track_force(LO, (0.25, 0.0, 0.105))[0] == pytest.approx(0.04)
 
 
-@pytest.mark.parametrize(("name", "args"), [("region_window", (0.01, -1.0, 0.0)),
-                                            ("region_hysteresis", (0.01, 0.0, float("nan")))])
-def test_bad_settings_are_refused_by_name(name: str, args: tuple[float, float, float]) -> None:
-    with pytest.raises(ValueError, match=f"{name} refused value"):
-        DesiredRegion(*args, 0.01)
+@pytest.mark.parametrize(("name", "value"), [("region_window", -1.0),
+                                             ("region_hysteresis", float("nan")),
+                                             ("region_margin", -0.01)])
+def test_bad_settings_are_refused_by_name(name: str, value: float) -> None:
+    with pytest.raises(ValueError, match=f"{name} = "):
+        ControllerConfig(**{name: value})  # type: ignore[arg-type]

@@ -27,9 +27,29 @@ from wholebody_controller.contact_safety import Safety, SafetyConfig
 from wholebody_controller.contact_task import Phase
 from wholebody_controller.controller import KinematicsModel
 from wholebody_controller.following import FOLD_ANGLE, LEASH_ANGLE
-from wholebody_controller.qp import QPProblem, QPSolver, build_qp, make_solver, velocity_bounds
+from wholebody_controller.qp import QPProblem, QPSolver, make_solver
 
 Array = NDArray[np.float64]
+
+
+def ref_velocity_bounds(q: Array, position_lower: Array, position_upper: Array,
+                        velocity_lower: Array, velocity_upper: Array,
+                        horizon: float) -> tuple[Array, Array]:
+    """(22) clipped into the velocity box."""
+    with np.errstate(invalid="ignore"):
+        lower = np.clip((position_lower - q) / horizon, velocity_lower, velocity_upper)
+        upper = np.clip((position_upper - q) / horizon, velocity_lower, velocity_upper)
+    return lower, upper
+
+
+def ref_build_qp(jacobian: Array, target: Array, weights: list[float], epsilon: float,
+                 lower: Array, upper: Array) -> QPProblem:
+    """(23): H = 2(Σ ψ_i J_iᵀ J_i + ε I), g = −2 Σ ψ_i J_iᵀ b_i, one weight per 6 rows."""
+    psi = np.repeat(np.asarray(weights, dtype=np.float64), 6)
+    hessian = 2.0 * (jacobian.T @ (psi[:, None] * jacobian)) + 2.0 * epsilon * np.eye(
+        jacobian.shape[1])
+    gradient = -2.0 * jacobian.T @ (psi * target)
+    return QPProblem(hessian, gradient, lower, upper)
 
 
 class RefAdmittance:
@@ -349,11 +369,11 @@ class RefController:
         stacked = np.concatenate(jacs)
         c, s = math.cos(yaw), math.sin(yaw)
         stacked[:, 0:2] = stacked[:, 0:2] @ np.array(((c, -s), (s, c)))
-        lo, hi = velocity_bounds(q, self.lower, self.upper, -self.vmax, self.vmax,
-                                 self.config.horizon)
+        lo, hi = ref_velocity_bounds(q, self.lower, self.upper, -self.vmax, self.vmax,
+                                     self.config.horizon)
         target = np.concatenate([o.target for o in outs])
-        problem = build_qp([stacked], [target], [o.psi for o in outs], self.config.epsilon,
-                           lo, hi)
+        problem = ref_build_qp(stacked, target, [o.psi for o in outs], self.config.epsilon,
+                               lo, hi)
         command = self.solver.solve(problem)
         residual = target - stacked @ command
         qdot = command.copy()

@@ -25,8 +25,8 @@ from wholebody_controller.contact_safety import SafetyConfig
 
 SOLVERS: tuple[str, ...] = ("daqp", "osqp")
 KERNELS: tuple[str, ...] = ("numba", "python")
-"""Allowed values of ``kernel``: the control step compiled (:mod:`~wholebody_controller.fused`,
-default) or the Python reference it is tested against."""
+"""Allowed values of ``kernel``: the control step compiled (default) or the same functions
+interpreted (:mod:`~wholebody_controller.kernels`)."""
 
 ROBOT_VELOCITY_LIMITS: tuple[float, ...] = tuple(
     math.ceil(1000.0 * v) / 1000.0 for v in robot_description().velocity_limits().tolist()
@@ -205,8 +205,8 @@ class ControllerConfig:
         solver: QP backend, ``"daqp"`` (exact active set, default: faster and exact) or
             ``"osqp"`` (the paper's, warm-started with tight tolerances).
         kernel: how the tasks, Jacobians and QP of a step are computed, one of
-            :data:`KERNELS`: ``"numba"`` (compiled, :mod:`~wholebody_controller.fused`; with a
-            kinematics it cannot drive, the Python step runs) or ``"python"`` (the reference).
+            :data:`KERNELS`: ``"numba"`` (compiled) or ``"python"`` (the same functions
+            interpreted: for debugging; :mod:`~wholebody_controller.kernels`).
     """
 
     links: tuple[LinkTaskConfig, ...] = tuple(LinkTaskConfig(name) for name in SKIN_LINKS)

@@ -14,6 +14,10 @@ Force limits (ISO/TS 15066, :mod:`phri_common.iso15066`). Each link has a quasi-
 The transient limit (2F for most regions) is not a threshold of this response — the response is
 already at full yield at F — but the guard records whether it was ever exceeded, for diagnostics.
 
+This module holds the settings and the formulas; the guard's and the budget's state machines
+run in the task step (:func:`~wholebody_controller.task_step.guard_update`,
+:func:`~wholebody_controller.task_step.regain_update`).
+
 Contact gating. A manual desired force (the waltz's 10 N) acts only while the link is touched.
 After contact is lost it may keep acting, to regain the contact, only while the link frame has
 travelled less than ``regain_distance`` and less than ``regain_time`` has passed; then it is
@@ -30,6 +34,7 @@ import math
 from dataclasses import dataclass
 
 from phri_common import paper
+from phri_common.jit import jitable
 from wholebody_controller.so3 import Vec3
 
 
@@ -78,6 +83,7 @@ class SafetyConfig:
                 raise ValueError(f"safety config: {name} = {value!r} is out of range {allowed}")
 
 
+@jitable
 def approach_scale(force: float, limit: float, fade_start: float) -> float:
     """s(‖f‖) ∈ [0, 1]: 1 up to a·F, then linear to 0 at F = ``limit`` [N] (``force`` [N])."""
     start = fade_start * limit
@@ -88,6 +94,7 @@ def approach_scale(force: float, limit: float, fade_start: float) -> float:
     return (limit - force) / (limit - start)
 
 
+@jitable
 def limit_approach(velocity: Vec3, normal: Vec3, scale: float) -> Vec3:
     """``velocity`` [m/s] with only ``scale`` of its component towards the contact left.
 
@@ -101,69 +108,3 @@ def limit_approach(velocity: Vec3, normal: Vec3, scale: float) -> Vec3:
         return velocity
     k = (1.0 - scale) * along
     return vx - k * nx, vy - k * ny, vz - k * nz
-
-
-class ForceGuard:
-    """The graded response of one link to its contact force (see module docstring)."""
-
-    def __init__(self, limit: float, transient_limit: float, config: SafetyConfig) -> None:
-        if not (0.0 < limit <= transient_limit) or not math.isfinite(transient_limit):
-            raise ValueError(f"force limits must satisfy 0 < limit ≤ transient limit < ∞, got "
-                             f"{limit} N and {transient_limit} N")
-        self.limit, self.transient_limit, self.config = limit, transient_limit, config
-        self.reset()
-
-    def reset(self) -> None:
-        """Forget the episode: not yielding, no peak."""
-        self.yielding = False
-        self.peak = 0.0
-        """Largest contact force seen since the last reset [N]."""
-        self.transient_exceeded = False
-
-    def update(self, force: float) -> float:
-        """Take this cycle's contact force ‖f‖ [N]; return the approach scale s ∈ [0, 1]."""
-        if force > self.peak:
-            self.peak = force
-            self.transient_exceeded = self.transient_exceeded or force > self.transient_limit
-        if self.yielding:
-            self.yielding = force >= self.config.reset_ratio * self.limit
-        else:
-            self.yielding = force >= self.limit
-        if self.yielding:
-            return 0.0
-        return approach_scale(force, self.limit, self.config.fade_start)
-
-
-class RegainBudget:
-    """Contact gating of a manual desired force (see module docstring)."""
-
-    def __init__(self, config: SafetyConfig) -> None:
-        self.config = config
-        self.reset()
-
-    def reset(self) -> None:
-        """As at a touch: full budget."""
-        self.travel = 0.0
-        """Link-frame travel since contact was lost [m]."""
-        self.elapsed = 0.0
-        """Time since contact was lost [s]."""
-        self.exhausted = False
-
-    def update(self, in_contact: bool, travel: float, dt: float) -> bool:
-        """Whether the desired force may act this cycle.
-
-        Args:
-            in_contact: the link is touched now.
-            travel: distance the link frame moved since the previous cycle [m].
-            dt: control period [s].
-        """
-        if in_contact:
-            self.reset()
-            return True
-        self.travel += travel
-        self.elapsed += dt
-        cfg = self.config
-        # 1e-9: a time summed from periods (200 × 0.01 s) must not exhaust the budget early.
-        if self.travel > cfg.regain_distance or self.elapsed > cfg.regain_time + 1e-9:
-            self.exhausted = True
-        return not self.exhausted

@@ -12,16 +12,16 @@ are for the world rates ``[ẋ, ẏ, ẏaw]`` of q_b = [x, y, yaw] (odom frame);
 That rotation preserves ‖u‖, so ε‖u‖² equals ε‖q̇‖² of (23). Base x/y position limits would not be
 boxes in u; they must be infinite (as on the real robot) — yaw limits are allowed.
 
-Speed (design §7: the step must fit well inside 2 ms, beside contact estimation). At this size a
-numpy call costs as much as dozens of float operations, so the step makes few of them: q is
-validated once here (as floats), the tasks run on plain floats and return their
-:class:`TaskOutput` directly (:meth:`ContactTask.step`), targets and weights of all tasks
-become one array, the Jacobians are written in place into one stacked buffer
-(``point_jacobian(..., out=)``), the base-frame rotation is one
-product with a 15×15 matrix, :class:`~wholebody_controller.qp.QPBuilder` forms H and g with two
-products on ``2ΨJ``, q̇ comes from the command's floats, and the tracking errors (21) are
-only computed when read (:attr:`StepResult.tracking_errors`).
-``test/wbc_reference.py`` is an independent numpy/scipy version the tests compare against (1e-9).
+State. Each link's task state is one row of :attr:`WholeBodyController.state`
+(:mod:`task_rows`), stepped by the one implementation of the step (:mod:`task_step`,
+:mod:`whole_step`) through the configured kernel (:mod:`kernels`: compiled or interpreted, the
+same functions). On the robot's MuJoCo kinematics the whole step is one kernel call
+(:func:`~wholebody_controller.whole_step.step_robot`); any other kinematics (a test robot, a
+model with other joint types) runs the tasks, its own ``point_jacobian`` and the QP assembly in
+turn. :attr:`WholeBodyController.tasks` gives read-only handles on the rows
+(:class:`~wholebody_controller.tasks.ContactTask`). The tracking errors (21) are only computed
+when read (:attr:`StepResult.tracking_errors`). ``test/wbc_reference.py`` is an independent
+numpy/scipy version of the whole step the tests compare against (1e-9).
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ from collections.abc import Mapping, Sequence
 from math import cos, isfinite, sin
 from typing import Protocol
 
+import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
@@ -37,11 +38,23 @@ from phri_common.planar import base_to_world
 from phri_common.records import ContactState
 from phri_description.description import BASE_JOINTS
 from wholebody_controller.config import ControllerConfig
-from wholebody_controller.contact_task import TARGET, ContactTask, TaskOutput
-from wholebody_controller.fused import CompiledStep, supports
-from wholebody_controller.qp import QPBuilder, QPError, QPProblem, QPSolver, make_solver
+from wholebody_controller.contact_task import TaskOutput
+from wholebody_controller.kernels import StepKernel, step_kernel
+from wholebody_controller.kinematics import RobotKinematics
+from wholebody_controller.qp import QPError, QPProblem, QPSolver, make_solver
+from wholebody_controller.task_rows import (
+    N_OUT,
+    N_STATE,
+    S_POINT,
+    contact_rows,
+    link_params,
+    task_outputs,
+)
+from wholebody_controller.tasks import ContactTask, admittance_transition
+from wholebody_controller.whole_step import HINGE, SLIDE, joint_chain
 
 Array = NDArray[np.float64]
+IntArray = NDArray[np.int64]
 
 
 class KinematicsModel(Protocol):
@@ -128,32 +141,61 @@ class WholeBodyController:
             raise ValueError(f"kinematics must start with {BASE_JOINTS}, got {names[:3]}")
         self.joint_names: tuple[str, ...] = tuple(names)
         self.n = len(names)
-        self._q_shape = (self.n,)
         limits = np.asarray(kinematics.position_limits, dtype=np.float64)
         if np.any(np.isfinite(limits[0:2])):
             raise ValueError("base x/y position limits must be infinite (see module docstring)")
         self._robot_position_limits = limits
         self._robot_velocity_limits = np.asarray(kinematics.velocity_limits, dtype=np.float64)
         self._solver_override = solver
-        self.config = ControllerConfig()
-        self._tasks: list[ContactTask] = []
-        self._compiled: CompiledStep | None = None
-        self._rows_stale = False
+        self._robot = RobotFrames.of(kinematics)
+        self.config = ControllerConfig(links=())
+        self.links: tuple[str, ...] = ()
+        self.state = np.zeros((0, N_STATE))
+        """One state row per link (:mod:`task_rows`), config order: the tasks' whole state."""
+        self.params = np.zeros((0, 0))
+        self.phi_gamma = np.zeros((0, 12, 18))
         self.configure(config or ControllerConfig())
 
     @property
-    def tasks(self) -> list[ContactTask]:
-        """The per-link tasks, config order, with their current state. Under the compiled step
-        the state lives in its rows: reading this copies it into the task objects, and the next
-        step takes the objects' state back (so changes made through them count)."""
-        if self._compiled is not None:
-            self._compiled.load(self._tasks)
-            self._rows_stale = True
-        return self._tasks
+    def tasks(self) -> tuple[ContactTask, ...]:
+        """Handles on the per-link task rows, config order (reading them changes nothing)."""
+        return tuple(ContactTask(link, self.config, state=self.state[i], params=self.params[i],
+                                 phi_gamma=self.phi_gamma[i])
+                     for i, link in enumerate(self.config.links))
 
     def configure(self, config: ControllerConfig) -> None:
-        """Apply a new configuration. Tasks whose settings are unchanged keep their state."""
-        tasks = self._build_tasks(config)
+        """Apply a new configuration. A link whose parameters and admittance are unchanged keeps
+        its task state; a changed or new one starts inactive."""
+        params = np.array([link_params(link, config) for link in config.links]
+                          ).reshape(len(config.links), -1)
+        phi_gamma = np.array([admittance_transition(link, config) for link in config.links]
+                             ).reshape(len(config.links), 12, 18)
+        state = np.zeros((len(config.links), N_STATE))
+        previous = {link: i for i, link in enumerate(self.links)}
+        for i, link in enumerate(config.links):
+            j = previous.get(link.link)
+            if j is not None and np.array_equal(self.params[j], params[i], equal_nan=True) \
+                    and np.array_equal(self.phi_gamma[j], phi_gamma[i]):
+                state[i] = self.state[j]
+        self.limits = self._limits(config)
+        if self._solver_override is not None:
+            self.solver: QPSolver = self._solver_override
+        elif getattr(self, "solver", None) is None or self.solver.name != config.solver:
+            self.solver = make_solver(config.solver)
+        self.kernel: StepKernel = step_kernel(config.kernel)
+        self.state, self.params, self.phi_gamma = state, params, phi_gamma
+        self.config, self.links = config, tuple(link.link for link in config.links)
+        k = len(self.links)
+        self._outputs = np.zeros((k, N_OUT))
+        self._raw_jacobian = np.zeros((6 * k, self.n))
+        self._base_rotation = np.eye(self.n)
+        self._bodies = self._chains = None
+        if self._robot is not None:
+            self._bodies, self._chains = self._robot.chains(self.links)
+            self._warm_up()
+
+    def _limits(self, config: ControllerConfig) -> Array:
+        """(4, n): q_l, q_u (the joints' own, within ``joint_ranges``), q̇_l, q̇_u of (22)."""
         lower = self._robot_position_limits[:, 0].copy()
         upper = self._robot_position_limits[:, 1].copy()
         index = {name: i for i, name in enumerate(self.joint_names)}
@@ -168,65 +210,22 @@ class WholeBodyController:
             if lower[i] > upper[i]:
                 raise ValueError(f"joint range of {rng.joint} does not meet its joint limits")
         vmax = config.axis_velocity_limits(self._robot_velocity_limits)
-        if self._solver_override is not None:
-            self.solver: QPSolver = self._solver_override
-        elif getattr(self, "solver", None) is None or self.solver.name != config.solver:
-            self.solver = make_solver(config.solver)
-        rows = 6 * len(tasks)
-        self._rows = rows
-        builder = QPBuilder(rows, self.n)
-        builder.set_limits(lower, upper, -vmax, vmax, config.horizon, config.epsilon)
-        self._builder = builder
-        # Jacobian blocks as views (kinematics write into them) and the raw-to-u column map.
-        self._raw_jacobian = np.zeros((rows, self.n))
-        self._jacobian_blocks = [self._raw_jacobian[6 * i : 6 * i + 6] for i in range(len(tasks))]
-        self._task_blocks = [
-            (task, task.config.link, block)
-            for task, block in zip(tasks, self._jacobian_blocks, strict=True)
-        ]
-        self._base_rotation = np.eye(self.n)
         self.position_lower, self.position_upper = lower, upper
-        self.velocity_upper = vmax
-        self.velocity_lower = -vmax
-        self._tasks = tasks
-        self.config = config
-        self._compiled = None
-        if config.kernel == "numba" and supports(self.kinematics):
-            limits = np.array([lower, upper, -vmax, vmax])
-            compiled = CompiledStep(tasks, self.kinematics,
-                                    limits, config.horizon, config.epsilon)
-            compiled.warm_up()  # compile or load now, not in the first control cycle
-            self._compiled = compiled
-        self._rows_stale = False
+        self.velocity_lower, self.velocity_upper = -vmax, vmax
+        return np.ascontiguousarray([lower, upper, -vmax, vmax], dtype=np.float64)
 
-    def _build_tasks(self, config: ControllerConfig) -> list[ContactTask]:
-        """One task per configured link; a task whose link settings and task globals are
-        unchanged is kept with its state."""
-        previous = {task.config.link: task for task in self.tasks}
-        same_globals = _task_globals(self.config) == _task_globals(config)
-        tasks = []
-        for link_cfg in config.links:
-            keep = previous.get(link_cfg.link)
-            if keep is not None and same_globals and keep.config == link_cfg:
-                tasks.append(keep)
-                continue
-            tasks.append(
-                ContactTask(
-                    link_cfg, k_eta=config.k_eta, b=config.b, k_p=config.k_p,
-                    psi_thr=config.psi_thr, region_margin=config.region_margin, dt=config.dt,
-                    safety=config.safety, region_window=config.region_window,
-                    region_hysteresis=config.region_hysteresis, lead=config.lead_moment,
-                )
-            )
-        return tasks
+    def _warm_up(self) -> None:
+        """Run the kernel once on scratch copies: compiles (or loads) it now, not in the first
+        control cycle."""
+        saved = self.state.copy()
+        try:
+            self._step_robot(np.zeros(self.n), np.zeros(len(self.links) * 16))
+        finally:
+            self.state[...] = saved
 
     def reset(self) -> None:
         """Every task back to inactive (e.g. after stale input)."""
-        for task in self._tasks:
-            task.reset()
-        if self._compiled is not None:
-            self._compiled.store(self._tasks)
-            self._rows_stale = False
+        self.state[...] = 0.0
 
     def step(self, q: Array, contacts: Mapping[str, ContactState]) -> StepResult:
         """One control cycle.
@@ -240,60 +239,64 @@ class WholeBodyController:
             QPError: the QP failed.
         """
         q = np.asarray(q, dtype=np.float64)
-        if q.shape != self._q_shape:
+        if q.shape != (self.n,):
             raise ValueError(f"configuration must be {self.n} finite numbers, got {q}")
         q_floats = q.tolist()
         # The sum is finite for every finite q short of overflow; the exact test runs only if not.
         if not isfinite(sum(q_floats)) and not all(map(isfinite, q_floats)):
             raise ValueError(f"configuration must be {self.n} finite numbers, got {q}")
-        yaw = q_floats[2]
-        if self._compiled is not None:
-            return self._step_compiled(self._compiled, q, yaw, contacts)
-        kin = self.kinematics
-        kin.update(q)
-        c, s = cos(yaw), sin(yaw)
-        link_pose = kin.link_pose_floats
-        point_jacobian = kin.point_jacobian
-        targets: list[float] = []
-        weights: list[float] = []
-        outputs = []
-        get = contacts.get
-        for task, link, block in self._task_blocks:
-            contact = get(link)
-            if contact is None:
-                contact = task.no_contact
-            rot, pos = link_pose(link)
-            out = task.step(contact, rot, pos, yaw)
-            outputs.append(out)
-            targets += out.values[TARGET]
-            psi2 = 2.0 * out.psi
-            weights += (psi2, psi2, psi2, psi2, psi2, psi2)
-            point_jacobian(link, task.jacobian_point, out=block)
-        rows = self._rows
-        targets += weights
-        data = np.array(targets)
-        target = data[:rows]
-        # World base rates → base-frame twist (module docstring): J_u = J_q · blockdiag(R(yaw), I).
-        rotation = self._base_rotation
-        rotation[0, 0] = c
-        rotation[0, 1] = -s
-        rotation[1, 0] = s
-        rotation[1, 1] = c
-        # Fresh (the result keeps it for its residual); np.dot: less call overhead than @.
-        jacobian = np.dot(self._raw_jacobian, rotation)
-        problem = self._builder.build(q, target, data[rows:, None], jacobian)
-        return self._solve(problem, yaw, tuple(outputs), target, jacobian)
-
-    def _step_compiled(self, compiled: CompiledStep, q: Array, yaw: float,
-                       contacts: Mapping[str, ContactState]) -> StepResult:
-        """:meth:`step` after the q check, by :mod:`~wholebody_controller.fused`."""
-        if self._rows_stale:
-            compiled.store(self._tasks)
-            self._rows_stale = False
-        outputs, target, jacobian, problem, finite = compiled.step(q, contacts)
+        rows, touched = contact_rows(self.links, contacts)
+        if self._robot is not None:
+            problem, target, jacobian, finite = self._step_robot(q, rows)
+        else:
+            problem, target, jacobian, finite = self._step_generic(q, rows)
         if not finite:
             raise QPError("QP data is not finite")
-        return self._solve(problem, yaw, outputs, target, jacobian)
+        outputs = task_outputs(self.links, self._outputs, touched)
+        return self._solve(problem, q_floats[2], outputs, target, jacobian)
+
+    def _step_robot(self, q: Array, rows: Array) -> tuple[QPProblem, Array, Array, bool]:
+        """The whole step in one kernel call on the MuJoCo frames at q."""
+        robot = self._robot
+        assert robot is not None
+        robot.update(q)
+        rows_n, n = 6 * len(self.links), self.n
+        empty = np.empty
+        target, jacobian = empty(rows_n), empty((rows_n, n))
+        hessian, gradient, lower, upper = empty((n, n)), empty(n), empty(n), empty(n)
+        finite = self.kernel.step_robot(
+            self.state, self.params, self.phi_gamma, rows, robot.data.xmat, robot.data.xpos,
+            self._bodies, self._chains, robot.data.xaxis, robot.data.xanchor, q, self.limits,
+            self.config.horizon, self.config.epsilon, self._outputs, target, jacobian, hessian,
+            gradient, lower, upper)
+        return QPProblem(hessian, gradient, lower, upper), target, jacobian, bool(finite)
+
+    def _step_generic(self, q: Array, rows: Array) -> tuple[QPProblem, Array, Array, bool]:
+        """The tasks, the kinematics' own Jacobians (8), then the QP (any kinematics)."""
+        kin = self.kinematics
+        kin.update(q)
+        frames = [kin.link_pose_floats(link) for link in self.links]
+        rots = np.array([f[0] for f in frames]).reshape(-1, 9)
+        positions = np.array([f[1] for f in frames]).reshape(-1, 3)
+        yaw = float(q[2])
+        self.kernel.step_links(self.state, self.params, self.phi_gamma, rows, rots, positions,
+                               yaw, self._outputs)
+        for i, link in enumerate(self.links):
+            kin.point_jacobian(link, self.state[i, S_POINT : S_POINT + 3].copy(),
+                               out=self._raw_jacobian[6 * i : 6 * i + 6])
+        # World base rates → base-frame twist (module docstring): J_u = J_q · blockdiag(R, I).
+        c, s = cos(yaw), sin(yaw)
+        rotation = self._base_rotation
+        rotation[0, 0], rotation[0, 1], rotation[1, 0], rotation[1, 1] = c, -s, s, c
+        jacobian = np.dot(self._raw_jacobian, rotation)
+        n, rows_n = self.n, 6 * len(self.links)
+        target = np.empty(rows_n)
+        hessian, gradient, lower, upper = (np.empty((n, n)), np.empty(n), np.empty(n),
+                                           np.empty(n))
+        finite = self.kernel.qp_of_step(self._outputs, jacobian, q, self.limits,
+                                        self.config.horizon, self.config.epsilon, target,
+                                        hessian, gradient, lower, upper)
+        return QPProblem(hessian, gradient, lower, upper), target, jacobian, bool(finite)
 
     def _solve(self, problem: QPProblem, yaw: float, outputs: tuple[TaskOutput, ...],
                target: Array, jacobian: Array) -> StepResult:
@@ -306,9 +309,36 @@ class WholeBodyController:
         return StepResult(command, np.array(u), outputs, problem, target, jacobian)
 
 
-def _task_globals(config: ControllerConfig) -> tuple[object, ...]:
-    """The controller-wide settings every :class:`ContactTask` is built from (a change rebuilds
-    the tasks)."""
-    return (config.k_eta, config.b, config.k_p, config.psi_thr, config.region_margin,
-            config.rate_hz, config.safety, config.region_window, config.region_hysteresis,
-            config.lead_moment)
+class RobotFrames:
+    """The MuJoCo side of :func:`~wholebody_controller.whole_step.step_robot`: a
+    ``RobotKinematics`` whose MuJoCo positions and DOFs are q itself (the default model), with
+    hinge and slide joints only."""
+
+    def __init__(self, kinematics: RobotKinematics) -> None:
+        self.kinematics = kinematics
+        self.model, self.data = kinematics.model, kinematics.data
+        self._qpos = kinematics.data.qpos
+
+    @classmethod
+    def of(cls, kinematics: object) -> RobotFrames | None:
+        """Frames for ``kinematics`` if the one-call step can drive it, else None."""
+        if not isinstance(kinematics, RobotKinematics) or not kinematics.dofs_are_q:
+            return None
+        kinds = kinematics.model.jnt_type
+        if not np.all((kinds == HINGE) | (kinds == SLIDE)):
+            return None
+        return cls(kinematics)
+
+    def chains(self, links: Sequence[str]) -> tuple[IntArray, IntArray]:
+        """Body ids of ``links`` and their joint chains ((k, L, 3), padded with −1 rows)."""
+        bodies = np.array([self.kinematics.body_id(link) for link in links], dtype=np.int64)
+        chains = [joint_chain(self.model, int(body)) for body in bodies]
+        out = np.full((len(links), max(map(len, chains), default=0), 3), -1, dtype=np.int64)
+        for i, chain in enumerate(chains):
+            out[i, : len(chain)] = chain
+        return bodies, out
+
+    def update(self, q: Array) -> None:
+        """MuJoCo's frames at q (finite, checked by the caller)."""
+        self._qpos[:] = q
+        mujoco.mj_kinematics(self.model, self.data)

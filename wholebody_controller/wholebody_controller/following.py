@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import math
 
+from phri_common.jit import jitable
 from wholebody_controller.linalg3 import matmul, matmul_transpose, rotate
 from wholebody_controller.so3 import Mat9, Vec3, exp, exp_and_left_jacobian, log
 
@@ -55,6 +56,7 @@ FOLD_ANGLE = 0.5 * math.pi
 """‖x̃_ω‖ above which the deflection is folded whole into the reference (F2) [rad]."""
 
 
+@jitable
 def lead_moment(center: Vec3, region_min: Vec3, region_max: Vec3, force: Vec3) -> Vec3:
     """ᶦτ_lead (F1) [N·m]: the moment about the middle of the contact region
     [``region_min``, ``region_max``] [m] of the force ``force`` [N] acting at the contact centre
@@ -66,6 +68,7 @@ def lead_moment(center: Vec3, region_min: Vec3, region_max: Vec3, force: Vec3) -
     return (ry * fz - rz * fy, rz * fx - rx * fz, rx * fy - ry * fx)
 
 
+@jitable
 def leash_reference(ref_rot: Mat9, deflection: Vec3, rate: Vec3, rot: Mat9,
                     leash: float = LEASH_ANGLE) -> tuple[Mat9, Vec3] | None:
     """(F2): ``(new ⁰R_r, new ẋ̃_ω [rad/s])`` for a deflection that restarts at 0 when the

@@ -6,9 +6,11 @@ per-contact arithmetic of (8)–(20) runs on Python floats; these are its few bu
 
 from __future__ import annotations
 
+from phri_common.jit import jitable
 from wholebody_controller.so3 import Mat9, Vec3
 
 
+@jitable
 def rotate(m: Mat9, v: Vec3) -> Vec3:
     """``M v``."""
     m0, m1, m2, m3, m4, m5, m6, m7, m8 = m
@@ -16,6 +18,7 @@ def rotate(m: Mat9, v: Vec3) -> Vec3:
     return m0 * x + m1 * y + m2 * z, m3 * x + m4 * y + m5 * z, m6 * x + m7 * y + m8 * z
 
 
+@jitable
 def rotate_pair(m: Mat9, u: Vec3, v: Vec3) -> tuple[float, float, float, float, float, float]:
     """``(M u, M v)`` as six floats (one call for two vectors in the same frame)."""
     m0, m1, m2, m3, m4, m5, m6, m7, m8 = m
@@ -25,6 +28,7 @@ def rotate_pair(m: Mat9, u: Vec3, v: Vec3) -> tuple[float, float, float, float, 
             m0 * vx + m1 * vy + m2 * vz, m3 * vx + m4 * vy + m5 * vz, m6 * vx + m7 * vy + m8 * vz)
 
 
+@jitable
 def matmul(a: Mat9, b: Mat9) -> tuple[float, ...]:
     """``A B``."""
     a0, a1, a2, a3, a4, a5, a6, a7, a8 = a
@@ -36,6 +40,7 @@ def matmul(a: Mat9, b: Mat9) -> tuple[float, ...]:
     )
 
 
+@jitable
 def matmul_transpose(a: Mat9, b: Mat9) -> tuple[float, ...]:
     """``A Bᵀ`` (entry ij: row i of A · row j of B)."""
     a0, a1, a2, a3, a4, a5, a6, a7, a8 = a

@@ -30,7 +30,7 @@ from phri_common.cloud import cloud_records, point_fields, record_dtype
 from phri_common.periodic import PeriodicThread
 from phri_common.planar import yaw_from_quaternion
 from phri_common.stamps import ns_to_stamp
-from wholebody_controller.contact_safety import ForceGuard, Safety
+from wholebody_controller.contact_safety import Safety
 from wholebody_controller.contact_task import (
     CONTROL,
     DEFLECTION,
@@ -41,6 +41,7 @@ from wholebody_controller.contact_task import (
     TaskOutput,
 )
 from wholebody_controller.input_checks import InputError
+from wholebody_controller.tasks import ContactTask
 
 Array = NDArray[np.float64]
 
@@ -187,8 +188,7 @@ def msg_to_task_state(msg: PointCloud2) -> dict[str, float]:
     return {name: float(records[0][name]) for name in TASK_STATE_FIELDS}
 
 
-def safety_status(link: str, safety: Safety, guard: ForceGuard,
-                  node_name: str) -> DiagnosticStatus:
+def safety_status(task: ContactTask, safety: Safety, node_name: str) -> DiagnosticStatus:
     """One link's contact safety as a diagnostic status: ERROR while yielding at the force limit
     or once the transient limit was exceeded, WARN after a contact loss stopped the desired
     force, OK otherwise; values: the state, the peak force and both limits [N]."""
@@ -199,15 +199,15 @@ def safety_status(link: str, safety: Safety, guard: ForceGuard,
         level, message = DiagnosticStatus.WARN, "contact lost: desired force stopped"
     if safety is Safety.YIELDING:
         level, message = DiagnosticStatus.ERROR, "contact force at its limit: yielding"
-    if guard.transient_exceeded:
+    if task.transient_exceeded:
         level = DiagnosticStatus.ERROR
-        message = f"transient force limit exceeded ({guard.peak:.1f} N); {message}"
-    values = {"state": safety.name, "peak_force_N": f"{guard.peak:.3f}",
-              "force_limit_N": f"{guard.limit:g}",
-              "transient_force_limit_N": f"{guard.transient_limit:g}"}
+        message = f"transient force limit exceeded ({task.peak_force:.1f} N); {message}"
+    values = {"state": safety.name, "peak_force_N": f"{task.peak_force:.3f}",
+              "force_limit_N": f"{task.force_limit:g}",
+              "transient_force_limit_N": f"{task.transient_force_limit:g}"}
     return DiagnosticStatus(
-        level=level, name=f"{node_name}: contact safety {link}", message=message,
-        hardware_id=link, values=[KeyValue(key=k, value=v) for k, v in values.items()])
+        level=level, name=f"{node_name}: contact safety {task.link}", message=message,
+        hardware_id=task.link, values=[KeyValue(key=k, value=v) for k, v in values.items()])
 
 
 def loop_status(node_name: str, mode: str, loop: PeriodicThread | None,

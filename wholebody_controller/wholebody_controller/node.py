@@ -498,9 +498,8 @@ class WholeBodyControllerNode(Node):
         assert self.controller is not None
         name = self.get_name()
         with self.cycle_lock:
-            statuses = [safety_status(task.config.link,
-                                      self.safety.get(task.config.link, Safety.OK),
-                                      task.guard, name) for task in self.controller.tasks]
+            statuses = [safety_status(task, self.safety.get(task.link, Safety.OK), name)
+                        for task in self.controller.tasks]
         statuses.append(loop_status(name, self.control_loop, self.loop, self.fatal_error))
         msg = DiagnosticArray(status=statuses)
         msg.header.stamp = ns_to_stamp(self.clock_ns())

@@ -12,13 +12,14 @@ bounds are then clipped into the velocity box, so the joint returns at the veloc
 problem is always feasible.
 
 Backends (same interface, :class:`QPSolver`): :class:`DaqpSolver` (exact dual active set,
-default — ≈ 10 µs here) and :class:`OsqpSolver` (the paper's OSQP [26], warm-started, tolerances
+default) and :class:`OsqpSolver` (the paper's OSQP [26], warm-started, tolerances
 1e-10 so it lands within 1e-6 of the optimum; polishing is off, which also keeps osqp 1.x from
 printing "Polishing not needed"). Both clip the answer into the bounds.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from math import isfinite
 from typing import Any, NamedTuple, Protocol
@@ -26,12 +27,9 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from phri_common.jit import jitable
+
 Array = NDArray[np.float64]
-
-
-_dot = np.dot
-# QPProblem(...) without the Python-level __new__ of a NamedTuple (hot path).
-_new_tuple = tuple.__new__
 
 
 class QPError(RuntimeError):
@@ -55,6 +53,58 @@ class QPProblem(NamedTuple):
         return float(0.5 * u @ self.hessian @ u + self.gradient @ u)
 
 
+@jitable
+def velocity_bounds_into(q: Array, limits: Array, horizon: float, lower: Array,
+                         upper: Array) -> None:
+    """The bounds of (23) from (22), written into ``lower`` and ``upper``:
+    ``clip((q_l − q)/h, q̇_l, q̇_u) ≤ u ≤ clip((q_u − q)/h, q̇_l, q̇_u)``.
+
+    Args:
+        q: current positions [rad] / [m] (only where the position limits are finite).
+        limits: (4, n) q_l, q_u (±inf allowed), q̇_l ≤ 0 ≤ q̇_u [rad/s] / [m/s].
+        horizon: h [s].
+    """
+    for i in range(q.shape[0]):
+        bound = max((limits[0, i] - q[i]) / horizon, limits[2, i])
+        lower[i] = min(bound, limits[3, i])
+        bound = max((limits[1, i] - q[i]) / horizon, limits[2, i])
+        upper[i] = min(bound, limits[3, i])
+
+
+@jitable
+def assemble_qp(jacobian: Array, target: Array, doubled_weights: Array, epsilon: float,
+                hessian: Array, gradient: Array) -> bool:
+    """(23): ``H = Jᵀ (2Ψ J) + 2ε I`` and ``g = −(2Ψ J)ᵀ b``, written into ``hessian`` and
+    ``gradient``; False where H's diagonal or g is not finite (NaN/inf anywhere in J, Ψ or b
+    reaches them; an off-diagonal |H_ij| ≤ √(H_ii H_jj) cannot overflow while they do not).
+
+    Args:
+        jacobian: stacked task Jacobians J (rows × n) in the decision variable's coordinates.
+        target: stacked b_i (rows) [m/s, rad/s].
+        doubled_weights: 2ψ_i for each row (rows).
+        epsilon: ε > 0.
+    """
+    rows, n = jacobian.shape
+    hessian[:, :] = 0.0
+    gradient[:] = 0.0
+    for r in range(rows):  # row by row: contiguous, and a link's zero columns are skipped
+        w, b = doubled_weights[r], target[r]
+        for i in range(n):
+            a = w * jacobian[r, i]
+            gradient[i] -= b * a
+            if a == 0.0:
+                continue
+            for j in range(i, n):
+                hessian[i, j] += a * jacobian[r, j]
+    check = 0.0
+    for i in range(n):
+        for j in range(i + 1, n):
+            hessian[j, i] = hessian[i, j]
+        hessian[i, i] += 2.0 * epsilon
+        check += hessian[i, i] + gradient[i]
+    return math.isfinite(check)
+
+
 def velocity_bounds(
     q: Array,
     position_lower: Array,
@@ -63,17 +113,12 @@ def velocity_bounds(
     velocity_upper: Array,
     horizon: float,
 ) -> tuple[Array, Array]:
-    """Bounds of (23) from (22), clipped into the velocity box so they are always consistent.
-
-    Args:
-        q: current positions [rad] / [m] (only where the position bounds are finite).
-        position_lower, position_upper: q_l, q_u (±inf allowed).
-        velocity_lower, velocity_upper: q̇_l ≤ 0 ≤ q̇_u [rad/s] / [m/s].
-        horizon: h [s].
-    """
-    with np.errstate(invalid="ignore"):
-        lower = np.clip((position_lower - q) / horizon, velocity_lower, velocity_upper)
-        upper = np.clip((position_upper - q) / horizon, velocity_lower, velocity_upper)
+    """:func:`velocity_bounds_into` on new arrays (limits as four vectors)."""
+    q = np.asarray(q, dtype=np.float64)
+    limits = np.array([position_lower, position_upper, velocity_lower, velocity_upper],
+                      dtype=np.float64)
+    lower, upper = np.empty_like(q), np.empty_like(q)
+    velocity_bounds_into(q, limits, float(horizon), lower, upper)
     return lower, upper
 
 
@@ -85,7 +130,7 @@ def build_qp(
     lower: Array,
     upper: Array,
 ) -> QPProblem:
-    """Assemble (23).
+    """(23) from task blocks, by :func:`assemble_qp`.
 
     Args:
         jacobians: J_i (6×n) of each contact centre, in the decision variable's coordinates
@@ -99,105 +144,19 @@ def build_qp(
         QPError: non-finite data or inconsistent bounds.
     """
     n = lower.shape[0]
-    stacked = np.concatenate(jacobians) if len(jacobians) else np.zeros((0, n))
-    rows = np.repeat(np.asarray(weights, dtype=np.float64), 6)
+    stacked = np.ascontiguousarray(np.concatenate(jacobians) if len(jacobians)
+                                   else np.zeros((0, n)), dtype=np.float64)
+    rows = np.repeat(2.0 * np.asarray(weights, dtype=np.float64), 6)
     if rows.shape[0] != stacked.shape[0]:
         raise QPError(f"{len(weights)} weights for {stacked.shape[0]} task rows")
-    weighted = stacked.T * rows  # Jᵀ Ψ
-    hessian = 2.0 * (weighted @ stacked)
-    hessian.flat[:: n + 1] += 2.0 * epsilon
-    gradient = -2.0 * (weighted @ np.concatenate(targets)) if len(targets) else np.zeros(n)
-    # One scalar reduction catches NaN/inf anywhere in the data.
-    if not np.isfinite(float(hessian.sum()) + float(gradient.sum())):
+    target = np.concatenate(targets) if len(targets) else np.zeros(0)
+    hessian, gradient = np.empty((n, n)), np.empty(n)
+    if not assemble_qp(stacked, np.asarray(target, dtype=np.float64), rows, float(epsilon),
+                       hessian, gradient):
         raise QPError("QP data is not finite")
     if np.isnan(float(lower.sum()) - float(upper.sum())) or np.any(lower > upper):
         raise QPError(f"QP bounds are inconsistent: lower {lower}, upper {upper}")
-    return QPProblem(hessian, gradient, lower, upper)
-
-
-class QPBuilder:
-    """:func:`velocity_bounds` + :func:`build_qp` for a fixed problem size, for the control step.
-
-    Same problem, fewer numpy calls: the stacked Jacobian lives in :attr:`jacobian` (the caller
-    writes the task blocks into it in place), ``H = 2 Jᵀ (Ψ J) + 2ε I`` and ``g = −2 (Ψ J)ᵀ b``
-    are two matrix products on it, and both bound vectors come from one broadcast over a 2×n
-    table. The hessian, gradient and bounds of every :class:`QPProblem` are fresh arrays (a
-    result never changes after it is returned); only the scratch buffers are reused.
-
-    Args:
-        rows: task rows (6 per task).
-        n: decision variables.
-    """
-
-    def __init__(self, rows: int, n: int) -> None:
-        self.rows, self.n = rows, n
-        self.jacobian = np.zeros((rows, n))
-        """Stacked task Jacobians in the decision variable's coordinates (written by the caller)."""
-        self._weighted = np.zeros((rows, n))
-        self._eps_eye = np.zeros((n, n))
-        self._position = np.zeros((2, n))
-        self._velocity_lower = np.zeros((2, n))
-        self._velocity_upper = np.zeros((2, n))
-        self._horizon = 1.0
-
-    def set_limits(
-        self,
-        position_lower: Array,
-        position_upper: Array,
-        velocity_lower: Array,
-        velocity_upper: Array,
-        horizon: float,
-        epsilon: float,
-    ) -> None:
-        """Limits of (22) (see :func:`velocity_bounds`) and ε of (23).
-
-        Raises:
-            ValueError: ``position_lower > position_upper`` or ``velocity_lower > velocity_upper``
-                somewhere (the per-step bounds are then consistent by construction).
-        """
-        if np.any(position_lower > position_upper) or np.any(velocity_lower > velocity_upper):
-            raise ValueError("QP limits need lower ≤ upper")
-        self._position[0], self._position[1] = position_lower, position_upper
-        self._velocity_lower[:] = velocity_lower
-        self._velocity_upper[:] = velocity_upper
-        self._horizon = float(horizon)
-        self._eps_eye[...] = np.diag(np.full(self.n, 2.0 * epsilon))
-
-    def build(
-        self, q: Array, target: Array, doubled_weights: Array, jacobian: Array | None = None
-    ) -> QPProblem:
-        """(23) at configuration q.
-
-        Args:
-            q: positions (n) [rad] / [m].
-            target: stacked b_i (rows) [m/s, rad/s].
-            doubled_weights: 2ψ_i for each row, shape (rows, 1) (the 2 of ``H = 2(…)``
-                folded in, which saves a pass over H).
-            jacobian: stacked task Jacobians (rows×n); default :attr:`jacobian`.
-
-        Raises:
-            QPError: non-finite data.
-        """
-        jac = self.jacobian if jacobian is None else jacobian
-        weighted = np.multiply(jac, doubled_weights, out=self._weighted)  # 2Ψ J
-        # np.dot: the same products with less call overhead than @ at this size.
-        hessian = _dot(jac.T, weighted)
-        gradient = target.dot(weighted)
-        hessian += self._eps_eye
-        np.negative(gradient, out=gradient)
-        # NaN/inf anywhere in J, Ψ or b reaches g (0·inf = NaN included) and the diagonal of H;
-        # an off-diagonal |H_ij| ≤ √(H_ii H_jj) cannot overflow while the diagonal does not. Sums
-        # of Python floats: cheaper than two numpy reductions at this size.
-        if not isfinite(sum(hessian.diagonal().tolist()) + sum(gradient.tolist())):
-            raise QPError("QP data is not finite")
-        # (22): clip((q_l − q)/h, q̇_l, q̇_u) ≤ u ≤ clip((q_u − q)/h, q̇_l, q̇_u). The limits are
-        # ordered (set_limits) and monotone maps keep the order, so lower ≤ upper always.
-        bounds = np.subtract(self._position, q)
-        np.divide(bounds, self._horizon, out=bounds)
-        np.maximum(bounds, self._velocity_lower, out=bounds)
-        np.minimum(bounds, self._velocity_upper, out=bounds)
-        lower, upper = bounds
-        return _new_tuple(QPProblem, (hessian, gradient, lower, upper))
+    return QPProblem(hessian, gradient, np.asarray(lower, float), np.asarray(upper, float))
 
 
 def kkt_residual(problem: QPProblem, u: Array) -> float:

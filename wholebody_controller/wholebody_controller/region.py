@@ -14,18 +14,23 @@ docs/wholebody_controller.md "Desired region") keep a still hand from producing 
   than h past its face of Ω_d, and disengages when it is back inside (a Schmitt trigger per
   face). While engaged, (11) applies unchanged. A boundary taxel flickering over the threshold
   moves a face by one pitch (7.5 mm); with h ≥ one pitch that flicker no longer toggles the track
-  force (issue 12: 237 toggles of 0 ↔ 1 N in 6 s with a still hand).
+  force (237 toggles of 0 ↔ 1 N in 6 s with a still hand at h = 0).
+
+This module holds the formulas; Ω_d itself is part of a link's task state and is locked, grown
+and reset by the task step (:func:`~wholebody_controller.task_step.region_update`).
 """
 
 from __future__ import annotations
 
 from collections.abc import MutableSequence
 
+from phri_common.jit import jitable
 from wholebody_controller.so3 import Vec3
 
 Box = tuple[Vec3, Vec3]
 
 
+@jitable
 def track_force(region_min: Vec3, region_max: Vec3, desired_min: Vec3,
                 desired_max: Vec3) -> Vec3:
     """μ (10)–(11) [m]: f_R(x⁺ − x_d⁺) − f_R(x_d⁻ − x⁻) per axis, f_R(x) = max(x, 0).
@@ -44,6 +49,7 @@ def track_force(region_min: Vec3, region_max: Vec3, desired_min: Vec3,
             (uz if uz > 0.0 else 0.0) - (lz if lz > 0.0 else 0.0))
 
 
+@jitable
 def grow_box(box: Box, lo: Vec3, hi: Vec3, margin: float) -> Box:
     """The smallest box holding ``box`` and [lo − margin, hi + margin] [m]."""
     (a, b, c), (d, e, f) = box
@@ -51,57 +57,7 @@ def grow_box(box: Box, lo: Vec3, hi: Vec3, margin: float) -> Box:
             (max(d, hi[0] + margin), max(e, hi[1] + margin), max(f, hi[2] + margin)))
 
 
-class DesiredRegion:
-    """Ω_d of one link (link frame, margin included) and μ (module docstring).
-
-    Args:
-        margin: margin added on every side of Ω_i [m].
-        window: onset window w over which Ω_d grows [s] (0 = lock on the first frame).
-        hysteresis: engage threshold h of each face [m] (0 = (10)–(11) exactly).
-        dt: control period [s].
-        user: a fixed Ω_d (lower, upper corner) [m] that replaces the locked one.
-    """
-
-    def __init__(self, margin: float, window: float, hysteresis: float, dt: float,
-                 user: Box | None = None) -> None:
-        for name, value in (("region_margin", margin), ("region_window", window),
-                            ("region_hysteresis", hysteresis)):
-            if not 0.0 <= value < float("inf"):
-                raise ValueError(f"{name} refused value {value}: allowed range [0, inf)")
-        self.margin, self.window, self.hysteresis, self.dt = margin, window, hysteresis, dt
-        self.user = user
-        self.box: Box | None = None
-        self._age = 0.0
-        self._engaged = [False] * 6
-
-    def reset(self) -> None:
-        """No Ω_d (the touch is over, or the task deactivated)."""
-        self.box = None
-        self._age = 0.0
-        self._engaged = [False] * 6
-
-    def update(self, lo: Vec3, hi: Vec3) -> None:
-        """Lock Ω_d on a touched frame's Ω_i = [lo, hi] (Algorithm 1 line 14); within the onset
-        window, grow it instead."""
-        if self.box is None:
-            self._age = 0.0
-            self.box = self.user if self.user is not None else grow_box((hi, lo), lo, hi,
-                                                                         self.margin)
-        elif self.user is None and self._age < self.window - 1e-12:
-            self.box = grow_box(self.box, lo, hi, self.margin)
-        self._age += self.dt
-
-    def track_force(self, lo: Vec3, hi: Vec3) -> Vec3:
-        """μ (11) of Ω_i = [lo, hi] against Ω_d [m] (zero without Ω_d), faces gated by the
-        hysteresis (module docstring)."""
-        if self.box is None:
-            return (0.0, 0.0, 0.0)
-        dlo, dhi = self.box
-        if self.hysteresis == 0.0:
-            return track_force(lo, hi, dlo, dhi)
-        return gated_track_force(lo, hi, dlo, dhi, self.hysteresis, self._engaged)
-
-
+@jitable
 def gated_track_force(lo: Vec3, hi: Vec3, desired_min: Vec3, desired_max: Vec3, h: float,
                       engaged: MutableSequence[bool]) -> Vec3:
     """μ (11) [m] of Ω_i = [lo, hi] against Ω_d, each face gated by the hysteresis ``h`` [m]

@@ -20,6 +20,8 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+from phri_common.jit import jitable
+
 Mat9 = Sequence[float]
 """A 3×3 matrix as 9 floats, row-major."""
 Vec3 = tuple[float, float, float]
@@ -30,6 +32,7 @@ _SERIES_THETA2 = 1e-4
 """Below this θ² [rad²] the coefficients use their Taylor series (first omitted term < 1e-15)."""
 
 
+@jitable
 def coefficients(theta2: float) -> tuple[float, float, float]:
     """``(sin θ/θ, (1 − cos θ)/θ², (θ − sin θ)/θ³)`` for ``θ² = theta2`` [rad²].
 
@@ -45,6 +48,7 @@ def coefficients(theta2: float) -> tuple[float, float, float]:
     return sin_t / theta, (1.0 - math.cos(theta)) / theta2, (theta - sin_t) / (theta2 * theta)
 
 
+@jitable
 def exp_and_left_jacobian(phi: Vec3) -> tuple[tuple[float, ...], tuple[float, ...]]:
     """``(exp([φ]×), J_l(φ))`` of a rotation vector φ [rad], sharing the trigonometry.
 
@@ -64,16 +68,19 @@ def exp_and_left_jacobian(phi: Vec3) -> tuple[tuple[float, ...], tuple[float, ..
     return exp_phi, jac
 
 
+@jitable
 def exp(phi: Vec3) -> tuple[float, ...]:
     """Rotation matrix ``exp([φ]×)`` of a rotation vector φ [rad] (Rodrigues)."""
     return exp_and_left_jacobian(phi)[0]
 
 
+@jitable
 def left_jacobian(phi: Vec3) -> tuple[float, ...]:
     """Left Jacobian ``J_l(φ)``: ``ω = J_l(φ) φ̇`` for ``R = exp([φ]×) R₀`` [rad/s]."""
     return exp_and_left_jacobian(phi)[1]
 
 
+@jitable
 def log(rot: Mat9) -> Vec3:
     """Rotation vector ``log(R)^∨`` [rad] of a rotation matrix, with angle θ in [0, π].
 
@@ -95,6 +102,7 @@ def log(rot: Mat9) -> Vec3:
     return k * wx, k * wy, k * wz
 
 
+@jitable
 def _log_near_pi(rot: Mat9, theta: float, antisym: Vec3) -> Vec3:
     """``log(R)^∨`` for θ near π: ``(R + Rᵀ)/2 = cos θ I + (1 − cos θ) a aᵀ`` gives the axis a
     from its largest diagonal entry (the first of equal ones); the sign is the one of the (tiny)
