@@ -356,14 +356,22 @@ SIM_TOPICS: tuple[TopicSpec, ...] = (
 docs/wholebody_controller.md), as recorded by ``phri sim``. ``/diagnostics`` comes at ~1 Hz."""
 
 TF_TOPIC = TopicSpec("/tf", "tf2_msgs/msg/TFMessage")
-"""Link transforms the recorder adds (computed from /joint_states and /odom), so a recording
-shows the robot in Foxglove / Lichtblick without a robot state publisher."""
+"""Transforms of the moving joints, which the recorder adds (computed from /joint_states and
+/odom), so a recording shows the robot in Foxglove / Lichtblick without a robot state publisher."""
+TF_STATIC_TOPIC = TopicSpec("/tf_static", "tf2_msgs/msg/TFMessage")
+"""Transforms of the fixed joints, recorded once at the start, latched (transient local), as
+robot_state_publisher publishes them."""
 
 
 ROBOT_DESCRIPTION_TOPIC = TopicSpec("/robot_description", "std_msgs/msg/String")
-"""The URDF, latched (transient local); not recorded. robot_state_publisher publishes it on a
-ROS install; in ``phri sim`` (no robot_state_publisher) the observer node does, so rviz and
-Foxglove find it."""
+"""The URDF, latched (transient local). robot_state_publisher publishes it on a ROS install; in
+``phri sim`` (no robot_state_publisher) the observer node does, so rviz and Foxglove find it; the
+recorder writes it once at the start with its latched QoS, so ``ros2 bag play`` replays it
+latched."""
+
+RECORDED_EXTRA_TOPICS: tuple[TopicSpec, ...] = (TF_TOPIC, TF_STATIC_TOPIC,
+                                                ROBOT_DESCRIPTION_TOPIC)
+"""What a recording holds beside :data:`SIM_TOPICS` (the recorder computes or knows them)."""
 
 
 def robot_description_urdf() -> str:
