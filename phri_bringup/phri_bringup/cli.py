@@ -149,6 +149,9 @@ def _parser() -> argparse.ArgumentParser:
     graph.add_argument("--skin-process", choices=("composed", "separate"), default="composed",
                        help="real: skin drivers and contact estimation in one process "
                             "(real.launch.py's skin_process)")
+    graph.add_argument("--arm-driver", choices=("phri_rtde", "ur_robot_driver"),
+                       default="phri_rtde", help="real: what drives the UR arms "
+                       "(real.launch.py's arm_driver; ur_robot_driver: no phri arm bridge)")
 
     report = sub.add_parser("paper-report", help="run centring, sliding and whole_body; draw "
                             "Figs 6–8 panel by panel; write the paper-vs-phri page")
@@ -527,7 +530,7 @@ def cmd_graph(args: argparse.Namespace) -> int:
     from phri_bringup.graph import real_graph, sim_graph
 
     nodes = sim_graph(args.scenario) if args.which == "sim" else \
-        real_graph(skin_process=args.skin_process)
+        real_graph(skin_process=args.skin_process, arm_driver=args.arm_driver)
     for spec in nodes:
         indent = ""
         if spec.nodes:
