@@ -129,3 +129,8 @@ def test_a_bad_scaling_value_is_refused_as_zero_until_the_next_good_one(
     assert not moving(node.cycle())
     node.take_speed_scaling("right", 100.0)
     assert moving(node.cycle())
+    node.on_speed_scaling_bytes("right", b"\x00\x01\x00")  # truncated: unreadable
+    assert node.rejected_inputs == rejected + 2
+    assert not moving(node.cycle())
+    node.on_speed_scaling_bytes("right", serialize_message(Float64(data=100.0)))
+    assert moving(node.cycle())

@@ -429,8 +429,15 @@ class WholeBodyControllerNode(Node):
         self.freshness.odom_arrived(self.now_s())
 
     def on_speed_scaling_bytes(self, arm: str, data: bytes) -> None:
-        """A serialized speed scaling of ``arm`` (std_msgs/Float64, percent)."""
-        self.take_speed_scaling(arm, float(deserialize_message(data, Float64).data))
+        """A serialized speed scaling of ``arm`` (std_msgs/Float64, percent); unreadable bytes
+        are refused like a bad value."""
+        try:
+            percent = float(deserialize_message(data, Float64).data)
+        except Exception as err:  # rclpy raises its own error types for bytes it cannot read
+            self._refuse(f"speed scaling of {arm}", err)
+            self.speed_scaling[arm] = 0.0
+            return
+        self.take_speed_scaling(arm, percent)
 
     def take_speed_scaling(self, arm: str, percent: float) -> None:
         """Keep ``arm``'s speed scaling [%] as a fraction; a refused value counts as 0 (zero
@@ -587,8 +594,9 @@ class WholeBodyControllerNode(Node):
             statuses = [safety_status(task.config.link,
                                       self.safety.get(task.config.link, Safety.OK),
                                       task.guard, name) for task in self.controller.tasks]
+            scaling = dict(self.speed_scaling)
         statuses.append(loop_status(name, self.control_loop, self.loop, self.fatal_error))
-        statuses.append(speed_scaling_status(name, dict(self.speed_scaling),
+        statuses.append(speed_scaling_status(name, scaling,
                                              float(self.params["min_speed_scaling"])))
         msg = DiagnosticArray(status=statuses)
         msg.header.stamp = ns_to_stamp(self.clock_ns())
