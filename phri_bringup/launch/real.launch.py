@@ -5,7 +5,8 @@ robot_state_publisher, and optionally rviz.
     ros2 launch phri_bringup real.launch.py [hardware_config:=DIR]
         [skin_left_port:=PORT] [skin_right_port:=PORT] [layout_dir:=DIR]
         [skin_process:=composed|separate] [taxel_rate_hz:=50.0]
-        [base_cmd_topic:=/base_driver/cmd_vel] [rviz:=true]
+        [base_cmd_topic:=/base_driver/cmd_vel] [arm_driver:=phri_rtde|ur_robot_driver]
+        [rviz:=true]
 
 The nodes come from ``phri_bringup.graph.real_graph`` (the one description of the graph).
 Parameters: phri_hardware's ``ur_arms.yaml``, ``base_guard.yaml`` and ``skin_real.yaml`` (from
@@ -16,6 +17,10 @@ ones). The base guard's ``base/cmd_vel`` is remapped to ``base_cmd_topic``.
 ``skin_process``: ``composed`` (default) runs both skin drivers and the contact estimation in one
 ``skin_contact_node`` process (frames handed over directly, each taxel topic published at
 ``taxel_rate_hz``), ``separate`` one process per node.
+``arm_driver``: ``phri_rtde`` (default) starts phri_hardware's UR arm bridge per arm;
+``ur_robot_driver`` starts none: Universal Robots' driver, running already (one per arm,
+namespaces left/right, forward_velocity_controller active; docs/bringup_guide.md), takes the
+same commands.
 
 Nothing starts while a value is still marked PLACEHOLDER in those files, a layout file is
 missing or an executable is not installed: the error names the file and line to edit.
@@ -27,6 +32,8 @@ from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
 from phri_bringup.graph import (
+    ARM_DRIVERS,
+    DEFAULT_ARM_DRIVER,
     DEFAULT_BASE_COMMAND_TOPIC,
     DEFAULT_SKIN_PROCESS,
     DEFAULT_TAXEL_RATE_HZ,
@@ -46,7 +53,7 @@ def _nodes(context):
              "skin_driver_right": arg("skin_right_port")}
     graph = real_graph(ports, arg("layout_dir"), arg("rviz").lower() in ("true", "1", "yes"),
                        arg("hardware_config"), arg("base_cmd_topic"), arg("skin_process"),
-                       float(arg("taxel_rate_hz")))
+                       float(arg("taxel_rate_hz")), arg("arm_driver"))
     urdf = robot_description_urdf()
     check = preflight_action("real.launch.py",
                              lambda: launch_problems(graph, ament_executable_exists, real=True))
@@ -78,6 +85,12 @@ def generate_launch_description():
                                           "topic [Hz] (0 = every frame)"),
         DeclareLaunchArgument("base_cmd_topic", default_value=DEFAULT_BASE_COMMAND_TOPIC,
                               description="the base driver's twist input (base_guard output)"),
+        DeclareLaunchArgument("arm_driver", default_value=DEFAULT_ARM_DRIVER,
+                              choices=list(ARM_DRIVERS),
+                              description="phri_rtde: phri_hardware's UR arm bridges (ur_rtde); "
+                                          "ur_robot_driver: no bridge, Universal Robots' driver "
+                                          "(started beforehand, one per arm in namespaces "
+                                          "left/right, forward_velocity_controller active)"),
         DeclareLaunchArgument("rviz", default_value="false", description="start rviz2"),
         OpaqueFunction(function=_nodes),
     ])

@@ -32,7 +32,8 @@ def _nodes(context):
 def generate_launch_description():
     return LaunchDescription([
         DeclareLaunchArgument("scenario", default_value="waltz",
-                              description="centring, sliding, wholebody or waltz"),
+                              description="centring, sliding, wholebody, waltz, waltz_tempo "
+                                          "or waltz_paper"),
         DeclareLaunchArgument("seed", default_value="0", description="skin noise seed"),
         DeclareLaunchArgument("rviz", default_value="false", description="start rviz2"),
         OpaqueFunction(function=_nodes),

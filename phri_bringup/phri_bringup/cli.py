@@ -14,8 +14,9 @@
     phri layouts DIR                              # nominal skin layout files for real.launch.py
     phri paper-report --page docs/paper_vs_phri.md   # Figs 6–8 panel by panel + paper vs phri
 
-Exit codes: 0 done, 1 run failed, 2 bad arguments or parameters, 130 stopped by Ctrl-C/SIGTERM
-(the robot was sent zero velocity and the recording was closed either way).
+Exit codes: 0 done, 1 run failed, 2 bad arguments or parameters (one ``phri: error:`` line,
+before anything starts), 130 stopped by Ctrl-C/SIGTERM (the robot was sent zero velocity and the
+recording was closed either way).
 """
 
 from __future__ import annotations
@@ -27,9 +28,17 @@ import signal
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
-SCENARIO_CHOICES = ("centring", "sliding", "wholebody", "waltz")
+SCENARIO_CHOICES = ("centring", "sliding", "wholebody", "waltz", "waltz_tempo", "waltz_paper")
+"""Every scenario ``phri sim`` runs (phri_bringup.graph.SCENARIO_FILES, kept here so ``phri
+--help`` imports nothing heavy; a test checks they agree). ``waltz_tempo`` is ``--scenario waltz
+--tempo tempo``, ``waltz_paper`` is ``--scenario waltz --params paper``."""
+SCENARIO_HELP = (
+    "centring (Fig. 6), sliding (Fig. 7), wholebody (Fig. 8), waltz (Fig. 1, the following "
+    "set), waltz_tempo (the waltz at a real slow-waltz tempo, bar 2 s), waltz_paper (the waltz "
+    "with the paper's literal parameter set); default waltz"
+)
 FAULT_CHOICES = ("skin_blind", "skin_stuck", "force_spike", "joint_jump")
 """phri_sim.faults.FAULT_KINDS (kept here so ``phri --help`` does not import the simulator;
 a test checks they agree)."""
@@ -47,14 +56,32 @@ def _log(text: str) -> None:
     print(f"phri: {text}", file=sys.stderr, flush=True)
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors: ``phri sim: error: … (phri sim --help)``, exit code 2."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def port_number(text: str) -> int:
+    """``--port`` value: a TCP port 1–65535 (0 would pick a random one nobody can find)."""
+    try:
+        port = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a port number: allowed 1–65535"
+                                         ) from None
+    if not 1 <= port <= 65535:
+        raise argparse.ArgumentTypeError(f"{port} refused: allowed 1–65535")
+    return port
+
+
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="phri", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = parser.add_subparsers(dest="command", required=True)
+    parser = _Parser(prog="phri", description=__doc__,
+                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     sim = sub.add_parser("sim", help="run a scenario through every node, lock-step, headless")
-    sim.add_argument("--scenario", default="waltz",
-                     help=f"one of {', '.join(SCENARIO_CHOICES)} (default waltz)")
+    sim.add_argument("--scenario", default="waltz", help=SCENARIO_HELP)
     sim.add_argument("--out", default=None,
                      help="output directory (default runs/<scenario>)")
     sim.add_argument("--duration", type=float, default=None, help="simulated length [s]")
@@ -72,8 +99,9 @@ def _parser() -> argparse.ArgumentParser:
                           "protocol frames of raw counts through skin_driver's calibration, "
                           "tare and moving average")
     sim.add_argument("--params", default=None,
-                     help="parameter file instead of config/<scenario>.yaml; 'paper' (waltz): "
-                          "the paper's literal set, config/waltz_paper.yaml")
+                     help="parameter file instead of config/<scenario>.yaml (checked before "
+                          "the run starts); 'paper' with the waltz: the paper's literal set, "
+                          "config/waltz_paper.yaml (the waltz_paper scenario)")
     sim.add_argument("--tempo", choices=WALTZ_TEMPOS, default="paper",
                      help="waltz tempo: paper (within Table II's limits, default) or tempo "
                           "(a real slow waltz, bar 2 s)")
@@ -90,7 +118,9 @@ def _parser() -> argparse.ArgumentParser:
     sim.add_argument("--no-video", dest="video", action="store_false", help="skip the MP4")
     sim.add_argument("--foxglove", action="store_true",
                      help="serve a live Foxglove WebSocket (localhost) and run in real time")
-    sim.add_argument("--port", type=int, default=8765, help="Foxglove WebSocket port")
+    sim.add_argument("--port", type=port_number, default=8765,
+                     help="Foxglove WebSocket port, 1–65535 (default 8765; a busy port is an "
+                          "error before the run starts)")
     sim.add_argument("--realtime", type=float, default=None, metavar="FACTOR",
                      help="pace the run to FACTOR × real time (default 1 with --foxglove, "
                           "else as fast as possible)")
@@ -119,6 +149,9 @@ def _parser() -> argparse.ArgumentParser:
     graph.add_argument("--skin-process", choices=("composed", "separate"), default="composed",
                        help="real: skin drivers and contact estimation in one process "
                             "(real.launch.py's skin_process)")
+    graph.add_argument("--arm-driver", choices=("phri_rtde", "ur_robot_driver"),
+                       default="phri_rtde", help="real: what drives the UR arms "
+                       "(real.launch.py's arm_driver; ur_robot_driver: no phri arm bridge)")
 
     report = sub.add_parser("paper-report", help="run centring, sliding and whole_body; draw "
                             "Figs 6–8 panel by panel; write the paper-vs-phri page")
@@ -199,36 +232,19 @@ def _progress_printer(start: float) -> Any:
 
 
 def cmd_sim(args: argparse.Namespace) -> int:
-    """``phri sim``: run, then plots and video from the recording."""
+    """``phri sim``: run, then plots and video from the recording. Arguments, the parameter file
+    and the Foxglove port are checked before anything starts (ValueError → exit code 2)."""
     os.environ.setdefault("MUJOCO_GL", "egl")
-    _enter_domain(args)
     from phri_bringup.graph import canonical_scenario, scenario_file
-    from phri_bringup.observer import RecordingSink, Sink
     from phri_bringup.session import StopFlag, run_session
 
-    name = canonical_scenario(args.scenario)
-    try:
-        name, args.params = waltz_variant(name, args.tempo, args.params)
-    except ValueError as err:
-        _log(str(err))
-        return 2
+    name, args.params = waltz_variant(canonical_scenario(args.scenario), args.tempo, args.params)
+    check_params(name, args.params)
     out = Path(args.out or f"runs/{scenario_file(name)}")
-    out.mkdir(parents=True, exist_ok=True)
     record_dir = None if args.no_record else Path(args.record or out / "recording")
-    sinks: list[Sink] = []
-    if record_dir is not None:
-        if (record_dir / "metadata.yaml").exists():
-            (record_dir / "metadata.yaml").unlink()
-        sinks.append(RecordingSink(str(record_dir), skin_rate_hz=args.skin_record_rate))
-    pace = args.realtime
-    if args.foxglove:
-        from phri_bringup.live import FoxgloveSink
-
-        live = FoxgloveSink(port=args.port)
-        sinks.append(live)
-        pace = pace if pace is not None else 1.0
-        _log(f"Foxglove live view: open {live.url} in Foxglove or Lichtblick "
-             "(3D panel, display frame 'odom')")
+    sinks = _open_sinks(args, out, record_dir)
+    _enter_domain(args)
+    pace = args.realtime if args.realtime is not None else (1.0 if args.foxglove else None)
     stop = StopFlag()
     previous = {sig: signal.signal(sig, stop.set) for sig in (signal.SIGINT, signal.SIGTERM)}
     start = time.perf_counter()
@@ -250,8 +266,8 @@ def cmd_sim(args: argparse.Namespace) -> int:
     run_wall = time.perf_counter() - start
     _log(f"zero velocity published at exit: {'yes' if result.zero_at_exit else 'NO'}")
     if record_dir is not None:
-        _log(f"recording: {record_dir} (ros2 bag info {record_dir}; Foxglove/Lichtblick: open "
-             f"{record_dir / 'recording_0.mcap'})")
+        _log(f"recording: {record_dir} (ros2 bag info / play {record_dir}; Foxglove/Lichtblick: "
+             f"open {recording_file(record_dir)})")
     if result.interrupted:
         _log("stopped before the end: recording closed, no metrics, plots or video")
         return 130
@@ -282,6 +298,28 @@ def cmd_sim(args: argparse.Namespace) -> int:
     total = time.perf_counter() - start
     _log(f"metrics: {out / 'metrics.json'}; total wall time {total:.0f} s")
     return 0
+
+
+def _open_sinks(args: argparse.Namespace, out: Path, record_dir: Path | None) -> list[Any]:
+    """The live view (``--foxglove``, first: a busy port stops the command before any file is
+    written) and the recording sink; ValueError naming the option when one cannot open."""
+    from phri_bringup.observer import RecordingSink
+
+    sinks: list[Any] = []
+    if args.foxglove:
+        live = foxglove_sink(args.port)
+        sinks.append(live)
+        _log(f"Foxglove live view: open {live.url} in Foxglove or Lichtblick "
+             "(3D panel, display frame 'odom')")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        if record_dir is not None:
+            sinks.append(RecordingSink(str(record_dir), skin_rate_hz=args.skin_record_rate))
+    except (OSError, ValueError) as err:
+        for sink in sinks:
+            sink.close()
+        raise ValueError(f"--out/--record: {err}") from None
+    return sinks
 
 
 def _following(args: argparse.Namespace, name: str, metrics: dict[str, Any], runs: list[Any],
@@ -344,24 +382,78 @@ WALTZ_TEMPOS = ("paper", "tempo")
 
 def waltz_variant(name: str, tempo: str, params: str | None) -> tuple[str, str | None]:
     """(scenario, parameter file) for ``--tempo`` and ``--params paper``: the tempo picks
-    ``waltz`` or ``waltz_tempo``; ``paper`` is the paper's literal set
-    (``config/waltz_paper.yaml``).
+    ``waltz`` or ``waltz_tempo``; ``paper`` is the paper's literal set, the ``waltz_paper``
+    scenario (the paper-tempo waltz with ``config/waltz_paper.yaml``).
 
     Raises:
-        ValueError: ``--tempo tempo`` or ``--params paper`` on a scenario that is not a waltz.
+        ValueError: ``--tempo tempo`` on a scenario that is not a waltz or with the paper's set;
+            ``--params paper`` on a scenario other than ``waltz`` / ``waltz_paper``.
     """
     from phri_bringup.graph import config_file
 
-    waltz = name.startswith("waltz")
-    if params == "paper":
-        if not waltz:
-            raise ValueError(f"--params paper is the waltz's paper set; scenario is {name!r}")
-        params = str(config_file("waltz_paper"))
-    if tempo != "paper":
-        if not waltz:
-            raise ValueError(f"--tempo {tempo} applies to the waltz only; scenario is {name!r}")
+    if tempo not in WALTZ_TEMPOS:
+        raise ValueError(f"--tempo {tempo!r} refused: allowed {', '.join(WALTZ_TEMPOS)}")
+    if tempo == "tempo":
+        if name not in ("waltz", "waltz_tempo"):
+            raise ValueError(f"--tempo tempo applies to the waltz only (the waltz_tempo "
+                             f"scenario); scenario is {name!r}")
         name = "waltz_tempo"
+    if params == "paper":
+        if name not in ("waltz", "waltz_paper"):
+            raise ValueError(f"--params paper is the paper-tempo waltz's literal set (scenario "
+                             f"waltz_paper); scenario is {name!r}")
+        return "waltz_paper", str(config_file("waltz_paper"))
     return name, params
+
+
+def check_params(name: str, params: str | None) -> None:
+    """Refuse a ``--params`` file before the run starts: missing, unreadable, a refused value,
+    or written for another scenario.
+
+    Raises:
+        ValueError: the problem, naming ``--params`` and the file.
+    """
+    from phri_bringup.graph import BRIDGE
+    from phri_bringup.session import load_sections
+
+    if params is None:
+        return
+    path = Path(params)
+    if not path.is_file():
+        raise ValueError(f"--params {params}: no such file (a parameter file like "
+                         "config/<scenario>.yaml, or 'paper' with --scenario waltz)")
+    try:
+        sections = load_sections(name, path)
+    except (OSError, ValueError) as err:
+        raise ValueError(f"--params {params}: {err}") from None
+    written_for = sections.get(BRIDGE, {}).get("scenario", name)
+    if written_for != name:
+        raise ValueError(f"--params {params}: the file is for scenario {written_for!r}, not "
+                         f"{name!r} (run --scenario {written_for})")
+
+
+def foxglove_sink(port: int) -> Any:
+    """The Foxglove live view on ``port``.
+
+    Raises:
+        ValueError: the port cannot be opened (busy, or not allowed), naming ``--port``.
+    """
+    from phri_bringup.live import FoxgloveSink
+
+    try:
+        return FoxgloveSink(port=port)
+    except OSError as err:
+        why = err.strerror or str(err)
+        raise ValueError(f"--port {port}: cannot listen on 127.0.0.1:{port} ({why}); is "
+                         "another live view or bridge on it? choose another --port") from None
+    except OverflowError as err:
+        raise ValueError(f"--port {port}: {err}; allowed 1–65535") from None
+
+
+def recording_file(record_dir: Path) -> Path:
+    """The MCAP file of a recording directory (the first one, as rosbag2 names them)."""
+    files = sorted(record_dir.glob("*.mcap"))
+    return files[0] if files else record_dir
 
 
 def _report_safety(metrics: dict[str, Any]) -> None:
@@ -438,7 +530,7 @@ def cmd_graph(args: argparse.Namespace) -> int:
     from phri_bringup.graph import real_graph, sim_graph
 
     nodes = sim_graph(args.scenario) if args.which == "sim" else \
-        real_graph(skin_process=args.skin_process)
+        real_graph(skin_process=args.skin_process, arm_driver=args.arm_driver)
     for spec in nodes:
         indent = ""
         if spec.nodes:

@@ -1,7 +1,8 @@
 """Link frames of the robot from joint states and odometry (pure: MuJoCo, no rclpy).
 
-The recorder writes them as ``/tf`` and the Foxglove bridge streams them, so a recording or a live
-view shows the robot without a ROS robot state publisher. The tree is exactly the URDF's
+The recorder writes them as ``/tf`` (moving joints) and ``/tf_static`` (fixed joints, once,
+latched) as robot_state_publisher does, and the Foxglove bridge streams them, so a recording or a
+live view shows the robot without a ROS robot state publisher. The tree is exactly the URDF's
 (phri_description.urdf_writer.urdf_transforms: the same parents, helper ``*_motion`` links and
 base joints ``odom → base_x_link → base_y_link → base_link`` robot_state_publisher publishes), so
 a recording replayed beside robot_state_publisher gives no link two parents.
@@ -11,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cache
 
 import mujoco
 import numpy as np
@@ -32,6 +34,30 @@ class Transform:
     child: str
     translation: tuple[float, float, float]
     rotation: tuple[float, float, float, float]
+
+
+@cache
+def fixed_joint_edges() -> frozenset[tuple[str, str]]:
+    """(parent, child) link pairs of the URDF's fixed joints: robot_state_publisher sends them
+    on ``/tf_static``, every other joint on ``/tf``."""
+    import xml.etree.ElementTree as ET
+
+    from phri_description.urdf_writer import urdf_string
+
+    edges = set()
+    for joint in ET.fromstring(urdf_string()).iter("joint"):
+        parent, child = joint.find("parent"), joint.find("child")
+        if joint.get("type") == "fixed" and parent is not None and child is not None:
+            edges.add((str(parent.get("link")), str(child.get("link"))))
+    return frozenset(edges)
+
+
+def split_static(transforms: Sequence[Transform]) -> tuple[list[Transform], list[Transform]]:
+    """(moving, fixed) transforms: the fixed joints' go on ``/tf_static``, the rest on ``/tf``."""
+    fixed = fixed_joint_edges()
+    moving = [t for t in transforms if (t.parent, t.child) not in fixed]
+    static = [t for t in transforms if (t.parent, t.child) in fixed]
+    return moving, static
 
 
 class RobotFrames:

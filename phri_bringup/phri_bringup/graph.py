@@ -276,19 +276,39 @@ def ros_nodes(graph: list[NodeSpec]) -> list[NodeSpec]:
     return [n for spec in graph for n in (spec.nodes or (spec,))]
 
 
+ARM_DRIVERS: tuple[str, ...] = ("phri_rtde", "ur_robot_driver")
+"""What drives the UR arms on the real robot (real.launch.py's ``arm_driver``): ``phri_rtde`` =
+phri_hardware's ``ur_arm_bridge_node`` per arm (ur_rtde, started by the launch file);
+``ur_robot_driver`` = Universal Robots' ROS 2 driver, started by the user beforehand, one per arm
+in namespace ``left``/``right`` with tf_prefix ``left_``/``right_`` and its
+``forward_velocity_controller`` active (docs/bringup_guide.md): the launch file then starts no
+arm bridge. Both take ``<arm>/forward_velocity_controller/commands`` and publish the joint states
+and ``<arm>/speed_scaling_state_broadcaster/speed_scaling``."""
+DEFAULT_ARM_DRIVER = "phri_rtde"
+
+
 def real_graph(ports: dict[str, str] | None = None, layout_dir: str = "",
                rviz: bool = False, hardware_dir: str = "",
                base_cmd_topic: str = DEFAULT_BASE_COMMAND_TOPIC,
                skin_process: str = DEFAULT_SKIN_PROCESS,
-               taxel_rate_hz: float = DEFAULT_TAXEL_RATE_HZ) -> list[NodeSpec]:
+               taxel_rate_hz: float = DEFAULT_TAXEL_RATE_HZ,
+               arm_driver: str = DEFAULT_ARM_DRIVER) -> list[NodeSpec]:
     """Processes on the real robot: skin drivers and estimation (:func:`real_skin_processes`:
     composed or separate), controller, the phri_hardware arm bridges (namespaces
-    ``left``/``right``) and base guard, and the robot state publisher.
+    ``left``/``right``; none with ``arm_driver`` ``ur_robot_driver``, :data:`ARM_DRIVERS`) and
+    base guard, and the robot state publisher.
 
     Parameters come from phri_hardware's files (``hardware_dir`` replaces its share directory),
     then ``config/real.yaml``; ``ports`` (driver node → port) and ``layout_dir`` (``<patch>.yaml``
     files, made absolute) override the skin file's values when given; the base guard's output is
-    remapped to ``base_cmd_topic``."""
+    remapped to ``base_cmd_topic``.
+
+    Raises:
+        ValueError: unknown ``arm_driver`` or ``skin_process``, or ``taxel_rate_hz`` < 0.
+    """
+    if arm_driver not in ARM_DRIVERS:
+        raise ValueError(f"arm_driver refused {arm_driver!r}: allowed {', '.join(ARM_DRIVERS)}")
+    bridges = ARMS if arm_driver == "phri_rtde" else ()
     nodes = real_skin_processes(ports, layout_dir, hardware_dir, skin_process, taxel_rate_hz)
     nodes += [
         NodeSpec(CONTROLLER, "wholebody_controller", "wholebody_controller_node",
@@ -297,8 +317,8 @@ def real_graph(ports: dict[str, str] | None = None, layout_dir: str = "",
                    parameter_files=(hardware_config(HARDWARE_CONFIG["ur_arm_bridge"],
                                                     hardware_dir),),
                    description=f"{arm} UR16e: forward_velocity_controller/commands → RTDE "
-                               "speedJ, joint states")
-          for arm in ARMS),
+                               "speedJ, joint states, speed scaling")
+          for arm in bridges),
         NodeSpec("base_guard", "phri_hardware", "base_guard_node",
                  parameter_files=(hardware_config(HARDWARE_CONFIG["base_guard"], hardware_dir),),
                  remappings=((BASE_GUARD_OUTPUT, base_cmd_topic),),
@@ -334,14 +354,22 @@ SIM_TOPICS: tuple[TopicSpec, ...] = (
 docs/wholebody_controller.md), as recorded by ``phri sim``. ``/diagnostics`` comes at ~1 Hz."""
 
 TF_TOPIC = TopicSpec("/tf", "tf2_msgs/msg/TFMessage")
-"""Link transforms the recorder adds (computed from /joint_states and /odom), so a recording
-shows the robot in Foxglove / Lichtblick without a robot state publisher."""
+"""Transforms of the moving joints, which the recorder adds (computed from /joint_states and
+/odom), so a recording shows the robot in Foxglove / Lichtblick without a robot state publisher."""
+TF_STATIC_TOPIC = TopicSpec("/tf_static", "tf2_msgs/msg/TFMessage")
+"""Transforms of the fixed joints, recorded once at the start, latched (transient local), as
+robot_state_publisher publishes them."""
 
 
 ROBOT_DESCRIPTION_TOPIC = TopicSpec("/robot_description", "std_msgs/msg/String")
-"""The URDF, latched (transient local); not recorded. robot_state_publisher publishes it on a
-ROS install; in ``phri sim`` (no robot_state_publisher) the observer node does, so rviz and
-Foxglove find it."""
+"""The URDF, latched (transient local). robot_state_publisher publishes it on a ROS install; in
+``phri sim`` (no robot_state_publisher) the observer node does, so rviz and Foxglove find it; the
+recorder writes it once at the start with its latched QoS, so ``ros2 bag play`` replays it
+latched."""
+
+RECORDED_EXTRA_TOPICS: tuple[TopicSpec, ...] = (TF_TOPIC, TF_STATIC_TOPIC,
+                                                ROBOT_DESCRIPTION_TOPIC)
+"""What a recording holds beside :data:`SIM_TOPICS` (the recorder computes or knows them)."""
 
 
 def robot_description_urdf() -> str:

@@ -21,8 +21,17 @@ from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64MultiArray, String
 
-from phri_bringup.frames import RobotFrames
-from phri_bringup.graph import ARMS, ROBOT_DESCRIPTION_TOPIC, SIM_TOPICS, TF_TOPIC, TopicSpec
+from phri_bringup.frames import RobotFrames, split_static
+from phri_bringup.graph import (
+    ARMS,
+    RECORDED_EXTRA_TOPICS,
+    ROBOT_DESCRIPTION_TOPIC,
+    SIM_TOPICS,
+    TF_STATIC_TOPIC,
+    TF_TOPIC,
+    TopicSpec,
+    robot_description_urdf,
+)
 from phri_bringup.recording import McapRecording, encode, ros_type, stamp_ns_of, tf_message
 from phri_common.planar import yaw_from_quaternion
 
@@ -64,22 +73,38 @@ class RobotState:
 
 
 class RecordingSink:
-    """Writes the observed topics into an MCAP recording; taxel arrays at ``skin_rate_hz`` (sim
-    time; 0 = every frame) and ``/tf`` computed at ``tf_rate_hz`` from the robot state."""
+    """Writes the observed topics into a rosbag2 MCAP recording (:mod:`phri_bringup.recording`,
+    each topic with its offered QoS); taxel arrays at ``skin_rate_hz`` (sim time; 0 = every
+    frame); ``/tf`` (moving joints) computed at ``tf_rate_hz`` from the robot state; and at the
+    first message ``/robot_description`` (the URDF) and ``/tf_static`` (fixed joints), once each,
+    latched — what robot_state_publisher would have published."""
 
     def __init__(self, directory: str, skin_rate_hz: float = 10.0, tf_rate_hz: float = 50.0
                  ) -> None:
         self.recording = McapRecording(directory)
-        for spec in (*SIM_TOPICS, TF_TOPIC):
+        for spec in (*SIM_TOPICS, *RECORDED_EXTRA_TOPICS):
             self.recording.declare(spec.name, spec.type)
         self.skin_period_ns = 0 if skin_rate_hz <= 0 else round(1e9 / skin_rate_hz)
         self.tf_period_ns = round(1e9 / tf_rate_hz)
         self._last_skin: dict[str, int] = {}
         self._last_tf = -math.inf
+        self._latched_written = False
         self.state = RobotState()
         self.frames = RobotFrames()
 
+    def _write_latched(self, stamp_ns: int) -> None:
+        """``/robot_description`` and ``/tf_static`` once, at the recording's first time."""
+        self._latched_written = True
+        self.recording.add(ROBOT_DESCRIPTION_TOPIC.name, ROBOT_DESCRIPTION_TOPIC.type,
+                           encode(ROBOT_DESCRIPTION_TOPIC.type,
+                                  {"data": robot_description_urdf()}), stamp_ns)
+        _moving, fixed = split_static(self.frames.transforms())
+        self.recording.add(TF_STATIC_TOPIC.name, TF_STATIC_TOPIC.type,
+                           encode(TF_STATIC_TOPIC.type, tf_message(fixed, stamp_ns)), stamp_ns)
+
     def on_message(self, topic: str, type_name: str, raw: bytes, stamp_ns: int) -> None:
+        if not self._latched_written:
+            self._write_latched(stamp_ns)
         if topic.startswith("/skin/") and self.skin_period_ns:
             last = self._last_skin.get(topic)
             # Half a period of slack keeps the decimation exact on a 100 Hz frame grid.
@@ -91,9 +116,9 @@ class RecordingSink:
         if self.state.update(topic, raw) and stamp_ns - self._last_tf >= self.tf_period_ns:
             self._last_tf = stamp_ns
             self.frames.set_state(self.state.joint_names, self.state.positions, self.state.base)
+            moving, _fixed = split_static(self.frames.transforms())
             self.recording.add(TF_TOPIC.name, TF_TOPIC.type,
-                               encode(TF_TOPIC.type, tf_message(self.frames.transforms(),
-                                                                stamp_ns)), stamp_ns)
+                               encode(TF_TOPIC.type, tf_message(moving, stamp_ns)), stamp_ns)
 
     def close(self) -> None:
         self.recording.close()

@@ -1,24 +1,38 @@
-"""MCAP recordings in ROS 2 CDR, without rosbag2 (pure: no rclpy).
+"""rosbag2 recordings in MCAP, written by rosbags' rosbag2 writer (pure: no rclpy).
 
-A recording is a rosbag2-style directory: ``<name>_0.mcap`` (profile ``ros2``, schemas as ROS 2
-``.msg`` text, messages as the CDR bytes exactly as they travelled, zstd-compressed chunks) and a
-``metadata.yaml``, so ``ros2 bag info/play DIR``, rosbags, Foxglove and Lichtblick open it.
+A recording is a rosbag2 bag directory (format version 9, storage ``mcap``): ``<name>.mcap``
+(profile ``ros2``, schemas as ROS 2 ``.msg`` text, messages as the CDR bytes exactly as they
+travelled, zstd-compressed chunks) and ``metadata.yaml`` with each topic's type, type hash
+(RIHS01) and offered QoS profiles (:data:`TOPIC_QOS`), so ``ros2 bag info`` / ``ros2 bag play``
+(latched topics replayed latched), rosbags, Foxglove and Lichtblick open it. rosbags (a
+maintained implementation of the rosbag2 format) writes the file, the channels' QoS metadata and
+``metadata.yaml``; this module only chooses what goes in.
 
-Message definitions come from rosbags' type store (the ROS 2 Kilted definitions); messages the
-recorder computes itself (``/tf``) are encoded with mcap-ros2-support's dynamic serializer.
+Message definitions and type hashes come from rosbags' type store (the ROS 2 Kilted
+definitions); messages the recorder computes itself (``/tf``, ``/tf_static``,
+``/robot_description``) are encoded with mcap-ros2-support's dynamic serializer.
 """
 
 from __future__ import annotations
 
+import shutil
 import struct
 from collections.abc import Callable
+from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
-from typing import Any, BinaryIO
+from typing import Any
 
-import yaml
-from mcap.well_known import MessageEncoding, SchemaEncoding
-from mcap.writer import CompressionType, Writer
+from rosbags.interfaces import (
+    Connection,
+    Qos,
+    QosDurability,
+    QosHistory,
+    QosLiveliness,
+    QosReliability,
+    QosTime,
+)
+from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
 
 from phri_bringup.frames import Transform
 
@@ -43,12 +57,17 @@ def stamp_ns_of(type_name: str, raw: bytes) -> int | None:
 
 
 @cache
-def message_definition(type_name: str) -> str:
-    """ROS 2 message definition text (with dependencies) of ``pkg/msg/Type``."""
+def typestore() -> Any:
+    """rosbags' type store of ROS 2 Kilted (message definitions and RIHS01 type hashes)."""
     from rosbags.typesys import Stores, get_typestore
 
-    store = get_typestore(Stores.ROS2_KILTED)
-    return str(store.generate_msgdef(type_name, ros_version=2)[0])
+    return get_typestore(Stores.ROS2_KILTED)
+
+
+@cache
+def message_definition(type_name: str) -> str:
+    """ROS 2 message definition text (with dependencies) of ``pkg/msg/Type``."""
+    return str(typestore().generate_msgdef(type_name, ros_version=2)[0])
 
 
 @cache
@@ -91,40 +110,107 @@ def encode(type_name: str, message: dict[str, Any]) -> bytes:
     return _encoder(type_name)(message)
 
 
-class McapRecording:
-    """Writes one rosbag2-compatible MCAP recording directory."""
+@dataclass(frozen=True)
+class TopicQos:
+    """The QoS a topic's publishers offer, as rosbag2 stores it (``offered_qos_profiles``).
 
-    def __init__(self, directory: str | Path, name: str = "recording") -> None:
+    Attributes:
+        depth: history depth (keep last).
+        reliable: reliable (else best effort).
+        latched: durability transient local (a late subscriber gets the last message): what
+            ``ros2 bag play`` needs to replay ``/robot_description`` and ``/tf_static`` latched.
+    """
+
+    depth: int = 10
+    reliable: bool = True
+    latched: bool = False
+
+    def profile(self) -> Qos:
+        """The rosbags QoS record (deadline, lifespan, lease: the ROS defaults, 0 = unset)."""
+        zero = QosTime(sec=0, nsec=0)
+        return Qos(
+            history=QosHistory.KEEP_LAST, depth=self.depth,
+            reliability=QosReliability.RELIABLE if self.reliable else QosReliability.BEST_EFFORT,
+            durability=QosDurability.TRANSIENT_LOCAL if self.latched else QosDurability.VOLATILE,
+            deadline=zero, lifespan=zero, liveliness=QosLiveliness.AUTOMATIC,
+            liveliness_lease_duration=zero, avoid_ros_namespace_conventions=False,
+        )
+
+
+DEFAULT_QOS = TopicQos()
+"""What phri's nodes offer on every topic they publish (reliable, volatile, keep last 10:
+phri_sim's bridge, contact_estimation's states, the controller's commands; docs/interfaces.md)."""
+LATCHED_QOS = TopicQos(depth=1, latched=True)
+"""robot_state_publisher's ``/robot_description`` and tf2's static broadcaster's ``/tf_static``
+(reliable, transient local, depth 1)."""
+TOPIC_QOS: dict[str, TopicQos] = {
+    "/tf": TopicQos(depth=100),  # tf2_ros.TransformBroadcaster's profile
+    "/tf_static": LATCHED_QOS,
+    "/robot_description": LATCHED_QOS,
+}
+"""Topics whose publishers offer something else than :data:`DEFAULT_QOS`."""
+
+
+def topic_qos(topic: str) -> TopicQos:
+    """The offered QoS recorded for ``topic``."""
+    return TOPIC_QOS.get(topic, DEFAULT_QOS)
+
+
+def clear_previous_recording(directory: Path) -> None:
+    """Remove an earlier recording in ``directory`` (a re-run with the same ``--out``).
+
+    Raises:
+        ValueError: ``directory`` exists but is not a recording (holds anything but
+            ``metadata.yaml`` and ``*.mcap`` files): nothing is deleted.
+    """
+    if not directory.exists():
+        return
+    if not directory.is_dir():
+        raise ValueError(f"recording directory {directory} is a file")
+    others = [p.name for p in directory.iterdir()
+              if not (p.is_file() and (p.name == "metadata.yaml" or p.suffix == ".mcap"))]
+    if others:
+        raise ValueError(f"recording directory {directory} holds other files "
+                         f"({', '.join(sorted(others)[:3])}): choose an empty or new directory")
+    shutil.rmtree(directory)
+
+
+class McapRecording:
+    """Writes one rosbag2 MCAP bag directory through rosbags' :class:`Writer`.
+
+    Args:
+        directory: the bag directory (created; an earlier recording there is replaced, see
+            :func:`clear_previous_recording`).
+    """
+
+    def __init__(self, directory: str | Path) -> None:
         self.directory = Path(directory)
-        self.directory.mkdir(parents=True, exist_ok=True)
-        self.path = self.directory / f"{name}_0.mcap"
-        self._stream: BinaryIO = self.path.open("wb")
-        self._writer = Writer(self._stream, compression=CompressionType.ZSTD,
-                              chunk_size=4 * 1024 * 1024)
-        self._writer.start(profile="ros2", library="phri_bringup")
-        self._schemas: dict[str, int] = {}
-        self._channels: dict[str, tuple[int, str]] = {}
+        clear_previous_recording(self.directory)
+        self.directory.parent.mkdir(parents=True, exist_ok=True)
+        self._writer = Writer(self.directory, version=Writer.VERSION_LATEST,
+                              storage_plugin=StoragePlugin.MCAP)
+        self._writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+        self._writer.open()
+        self.path = self.directory / f"{self.directory.name}.mcap"
+        """The MCAP file (rosbags names it after the directory)."""
+        self._channels: dict[str, tuple[Connection, str]] = {}
         self.counts: dict[str, int] = {}
         self.first_ns: int | None = None
         self.last_ns = 0
         self.closed = False
 
-    def _channel(self, topic: str, type_name: str) -> int:
+    def _channel(self, topic: str, type_name: str) -> Connection:
         known = self._channels.get(topic)
         if known is not None:
             if known[1] != type_name:
                 raise ValueError(f"topic {topic} recorded as {known[1]}, got {type_name}")
             return known[0]
-        schema = self._schemas.get(type_name)
-        if schema is None:
-            schema = self._writer.register_schema(
-                type_name, SchemaEncoding.ROS2, message_definition(type_name).encode()
-            )
-            self._schemas[type_name] = schema
-        channel = self._writer.register_channel(topic, MessageEncoding.CDR, schema)
-        self._channels[topic] = (channel, type_name)
+        connection = self._writer.add_connection(
+            topic, type_name, typestore=typestore(), serialization_format="cdr",
+            offered_qos_profiles=[topic_qos(topic).profile()])
+        self._channels[topic] = (connection, type_name)
         self.counts[topic] = 0
-        return channel
+        return connection
 
     def declare(self, topic: str, type_name: str) -> None:
         """Register ``topic`` now, so it is listed even if no message arrives (e.g. a contact
@@ -135,50 +221,18 @@ class McapRecording:
         """Record one CDR message on ``topic`` at ``log_time_ns`` [ns]."""
         if self.closed:
             return
-        channel = self._channel(topic, type_name)
-        self._writer.add_message(channel, log_time=log_time_ns, data=raw,
-                                 publish_time=log_time_ns, sequence=self.counts[topic])
+        connection = self._channel(topic, type_name)
+        self._writer.write(connection, log_time_ns, raw)
         self.counts[topic] += 1
         self.first_ns = log_time_ns if self.first_ns is None else min(self.first_ns, log_time_ns)
         self.last_ns = max(self.last_ns, log_time_ns)
 
     def close(self) -> None:
-        """Finish the MCAP file and write ``metadata.yaml``."""
+        """Finish the MCAP file and write ``metadata.yaml`` (idempotent)."""
         if self.closed:
             return
         self.closed = True
-        self._writer.finish()
-        self._stream.close()
-        (self.directory / "metadata.yaml").write_text(self.metadata_yaml(), encoding="utf-8")
-
-    def metadata_yaml(self) -> str:
-        """rosbag2 ``metadata.yaml`` (version 5) describing the MCAP file."""
-        start = self.first_ns or 0
-        duration = max(0, self.last_ns - start)
-        total = sum(self.counts.values())
-        info = {
-            "version": 5,
-            "storage_identifier": "mcap",
-            "duration": {"nanoseconds": duration},
-            "starting_time": {"nanoseconds_since_epoch": start},
-            "message_count": total,
-            "topics_with_message_count": [
-                {"topic_metadata": {"name": topic, "type": type_name,
-                                    "serialization_format": "cdr",
-                                    "offered_qos_profiles": ""},
-                 "message_count": self.counts[topic]}
-                for topic, (_, type_name) in self._channels.items()
-            ],
-            "compression_format": "",
-            "compression_mode": "",
-            "relative_file_paths": [self.path.name],
-            "files": [{"path": self.path.name,
-                       "starting_time": {"nanoseconds_since_epoch": start},
-                       "duration": {"nanoseconds": duration},
-                       "message_count": total}],
-            "custom_data": {},
-        }
-        return str(yaml.safe_dump({"rosbag2_bagfile_information": info}, sort_keys=False))
+        self._writer.close()
 
 
 def find_recording(path: str | Path) -> Path:

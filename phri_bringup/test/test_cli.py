@@ -127,3 +127,80 @@ def test_phri_sim_fault_reports_what_the_robot_did(tmp_path: Path) -> None:
     bad = subprocess.run([*PHRI, "sim", "--fault", "skin_melted", "--no-record"],
                          capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and "skin_melted" in bad.stderr
+
+
+def test_sim_help_lists_every_scenario(capsys: pytest.CaptureFixture[str]) -> None:
+    from phri_bringup.cli import SCENARIO_CHOICES
+    from phri_bringup.graph import SCENARIO_FILES, canonical_scenario
+
+    assert {canonical_scenario(c) for c in SCENARIO_CHOICES} == set(SCENARIO_FILES)
+    with pytest.raises(SystemExit):
+        main(["sim", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for choice in SCENARIO_CHOICES:
+        assert choice in text, choice
+
+
+def test_params_paper_is_the_waltz_paper_scenario() -> None:
+    """README's ``phri sim --scenario waltz --params paper``: the waltz_paper scenario with
+    config/waltz_paper.yaml, accepted by the same check the run makes; the combinations without
+    a paper set are refused before anything starts."""
+    from phri_bringup.cli import check_params, waltz_variant
+    from phri_bringup.graph import config_file
+
+    name, params = waltz_variant("waltz", "paper", "paper")
+    assert (name, params) == ("waltz_paper", str(config_file("waltz_paper")))
+    check_params(name, params)
+    assert waltz_variant("waltz", "tempo", None) == ("waltz_tempo", None)
+    assert waltz_variant("waltz_paper", "paper", "paper")[0] == "waltz_paper"
+    for scenario, tempo in (("centring", "paper"), ("waltz", "tempo"), ("waltz_tempo", "paper")):
+        with pytest.raises(ValueError, match="--params paper"):
+            waltz_variant(scenario, tempo, "paper")
+    with pytest.raises(ValueError, match="is for scenario 'waltz_paper'"):
+        check_params("waltz", str(config_file("waltz_paper")))
+
+
+def _one_line_error(args: list[str], out: Path) -> str:
+    """Run ``phri ARGS --out OUT``; assert exit code 2, a single stderr line, nothing created."""
+    proc = subprocess.run([*PHRI, *args, "--out", str(out)], capture_output=True, text=True,
+                          timeout=120, stdin=subprocess.DEVNULL)
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode == 2, proc.stderr[-2000:]
+    assert len(lines) == 1 and "error:" in lines[0], proc.stderr[-2000:]
+    assert not out.exists(), "a refused command must not start the run"
+    return lines[0]
+
+
+def test_bad_params_and_ports_are_one_line_errors_before_the_run(tmp_path: Path) -> None:
+    import socket
+
+    out = tmp_path / "run"
+    line = _one_line_error(["sim", "--scenario", "centring", "--params", "nosuch"], out)
+    assert "--params nosuch" in line and "no such file" in line
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("wholebody_controller:\n  ros__parameters:\n    k_p: -5.0\n")
+    assert "k_p" in _one_line_error(["sim", "--scenario", "centring", "--params", str(broken)],
+                                     out)
+    assert "--port" in _one_line_error(["sim", "--foxglove", "--port", "99999"], out)
+    assert "--params paper" in _one_line_error(["sim", "--scenario", "sliding", "--params",
+                                                "paper"], out)
+    with socket.socket() as busy:  # a port someone else listens on
+        busy.bind(("127.0.0.1", 0))
+        busy.listen(1)
+        port = busy.getsockname()[1]
+        line = _one_line_error(["sim", "--scenario", "centring", "--foxglove", "--port",
+                                str(port)], out)
+    assert f"--port {port}" in line and "choose another --port" in line
+
+
+@pytest.mark.ros
+def test_readme_paper_set_command_runs(tmp_path: Path) -> None:
+    """The README's and bringup.md's ``phri sim --scenario waltz --params paper`` (shortened)."""
+    out = tmp_path / "run"
+    proc = subprocess.run(
+        [*PHRI, "sim", "--scenario", "waltz", "--params", "paper", "--duration", "1.0",
+         "--no-video", "--no-plots", "--no-baseline", "--out", str(out)],
+        capture_output=True, text=True, timeout=180, stdin=subprocess.DEVNULL,
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert json.loads((out / "metrics.json").read_text())["scenario"] == "waltz_paper"

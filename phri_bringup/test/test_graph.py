@@ -214,3 +214,30 @@ def test_every_launch_argument_is_documented(name: str) -> None:
     rows = {cell.strip("` ") for line in docs.splitlines() if line.startswith("| `")
             for cell in line.split("|")[1].split("(")[0].split(",")}
     assert declared and declared <= rows, declared - rows
+
+
+def test_ur_robot_driver_replaces_the_arm_bridges_and_nothing_else() -> None:
+    """``arm_driver:=ur_robot_driver``: no phri arm bridge (and so none of ur_arms.yaml's
+    placeholders in the way); every other node as with phri's RTDE bridges; the launch file
+    offers exactly the graph's choices."""
+    from phri_bringup.cli import main
+    from phri_bringup.preflight import placeholder_problems
+
+    rtde = graph.ros_nodes(graph.real_graph())
+    urd = graph.ros_nodes(graph.real_graph(arm_driver="ur_robot_driver"))
+    assert [(n.namespace, n.name) for n in rtde if n.name != "ur_arm_bridge"] == \
+        [(n.namespace, n.name) for n in urd]
+    assert {(n.namespace, n.name) for n in rtde} - {(n.namespace, n.name) for n in urd} == \
+        {("left", "ur_arm_bridge"), ("right", "ur_arm_bridge")}
+    assert any("ur_arms.yaml" in p for p in placeholder_problems(graph.real_graph()))
+    assert not any("ur_arms.yaml" in p for p in placeholder_problems(urd))
+    with pytest.raises(ValueError, match="arm_driver"):
+        graph.real_graph(arm_driver="ur_rtde_driver")
+    tree = _launch_tree("real.launch.py")
+    declared = [c for c in ast.walk(tree) if isinstance(c, ast.Call)
+                and getattr(c.func, "id", "") == "DeclareLaunchArgument"
+                and isinstance(c.args[0], ast.Constant) and c.args[0].value == "arm_driver"]
+    assert len(declared) == 1
+    keywords = {k.arg: k.value for k in declared[0].keywords}
+    assert getattr(keywords["choices"], "args", [None])[0].id == "ARM_DRIVERS"  # type: ignore[union-attr]
+    assert main(["graph", "real", "--arm-driver", "ur_robot_driver"]) == 0

@@ -151,3 +151,27 @@ def test_real_launch_refuses_placeholders_and_starts_the_real_graph(tmp_path: Pa
                                                f"layout_dir:={layouts}"))
     expected = sorted(s.executable for s in real_graph())
     _assert_all_start_and_stop(proc, pids, expected)
+
+
+def test_real_launch_with_ur_robot_driver_starts_no_arm_bridge(tmp_path: Path) -> None:
+    """``arm_driver:=ur_robot_driver``: ur_arms.yaml may keep its placeholders (it is not read),
+    and every node of the real graph starts except the two arm bridges."""
+    pids = tmp_path / "pids"
+    prefix = _stand_in_prefix(tmp_path, pids, real=True)
+    site, layouts = tmp_path / "site", tmp_path / "layouts"
+    site.mkdir()
+    layouts.mkdir()
+    source = share_dir("phri_hardware") / "config"
+    for name in HARDWARE_CONFIG.values():
+        text = (source / name).read_text(encoding="utf-8")
+        if name != HARDWARE_CONFIG["ur_arm_bridge"]:
+            text = text.replace("PLACEHOLDER", "set")
+        (site / name).write_text(text, encoding="utf-8")
+    for patch in PATCHES:
+        (layouts / f"{patch}.yaml").write_text("{}", encoding="utf-8")
+    proc = _launch(prefix, "real.launch.py", (f"hardware_config:={site}",
+                                               f"layout_dir:={layouts}",
+                                               "arm_driver:=ur_robot_driver"))
+    expected = sorted(s.executable for s in real_graph(arm_driver="ur_robot_driver"))
+    assert "ur_arm_bridge_node" not in expected
+    _assert_all_start_and_stop(proc, pids, expected)

@@ -120,6 +120,21 @@ def test_package_xml_is_valid_format_3(package: str) -> None:
 
 
 @pytest.mark.parametrize("package", PACKAGES)
+def test_package_xml_names_each_dependency_once(package: str) -> None:
+    """A key twice (catkin_pkg accepts it; colcon lint and reviewers do not) is a merge slip."""
+    import xml.etree.ElementTree as ET
+
+    root = ET.parse(ROOT / package / "package.xml").getroot()
+    kinds = ("depend", "build_depend", "build_export_depend", "exec_depend", "test_depend")
+    seen: dict[tuple[str, str], int] = {}
+    for element in root:
+        if element.tag in kinds and element.text:
+            key = (element.tag, element.text.strip())
+            seen[key] = seen.get(key, 0) + 1
+    assert [k for k, n in seen.items() if n > 1] == []
+
+
+@pytest.mark.parametrize("package", PACKAGES)
 def test_colcon_runs_pytest_with_the_workspace_options(package: str) -> None:
     """colcon picks pytest (not unittest, which finds 0 tests) only when setup.cfg's ``test``
     extra names it, and runs it in the package directory: the ``[tool:pytest]`` section there

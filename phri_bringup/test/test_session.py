@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from phri_bringup.graph import SIM_TOPICS, TF_TOPIC
+from phri_bringup.graph import RECORDED_EXTRA_TOPICS, SIM_TOPICS
 from phri_bringup.observer import RecordingSink
 from phri_bringup.session import StopFlag, run_session
 
@@ -95,7 +95,7 @@ def test_recording_holds_every_documented_topic_with_its_type(recorded_run: Any)
     directory, result = recorded_run
     with AnyReader([directory]) as reader:
         topics = {c.topic: c.msgtype for c in reader.connections}
-        for spec in (*SIM_TOPICS, TF_TOPIC):
+        for spec in (*SIM_TOPICS, *RECORDED_EXTRA_TOPICS):
             assert topics.get(spec.name) == spec.type, spec.name
         counts = {c.topic: c.msgcount for c in reader.connections}
         # 100 Hz sim topics over 2.5 s; the runner may thin out the frames of an untouched
@@ -125,15 +125,17 @@ def test_recording_decodes_with_mcap_ros2_too(recorded_run: Any) -> None:
     from mcap_ros2.decoder import DecoderFactory
 
     directory, _ = recorded_run
-    with (directory / "recording_0.mcap").open("rb") as f:
+    with next(directory.glob("*.mcap")).open("rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
-        for _, channel, _, msg in reader.iter_decoded_messages(topics=["/tf"]):
-            frames = {t.child_frame_id for t in msg.transforms}
-            assert {"base_link", "left_forearm_link", "right_wrist_3_link"} <= frames
+        seen: dict[str, set[str]] = {}
+        for _, channel, _, msg in reader.iter_decoded_messages(topics=["/tf", "/tf_static"]):
             assert channel.message_encoding == "cdr"
-            break
-        else:
-            pytest.fail("no /tf message")
+            seen.setdefault(channel.topic, set()).update(t.child_frame_id
+                                                         for t in msg.transforms)
+    # Moving joints on /tf, fixed ones (a skin link on its joint's helper frame) on /tf_static.
+    assert {"base_link", "left_forearm_link_motion", "right_wrist_3_link_motion"} <= seen["/tf"]
+    assert {"left_forearm_link", "right_wrist_3_link", "torso_link"} <= seen["/tf_static"]
+    assert not seen["/tf"] & seen["/tf_static"]
 
 
 def test_push_moves_the_robot_and_plots_show_it(recorded_run: Any, tmp_path: Path) -> None:

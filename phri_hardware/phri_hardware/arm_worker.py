@@ -30,6 +30,7 @@ worker exits, not the bare fact that it exited.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import multiprocessing
 import select
 import time
@@ -244,11 +245,7 @@ def _drain(conn: Connection) -> list[Any]:
 
 
 def _with_program(state: ArmState) -> ArmState:
-    return ArmState(
-        q=state.q, qd=state.qd, robot_mode=state.robot_mode, safety_mode=state.safety_mode,
-        protective_stopped=state.protective_stopped, emergency_stopped=state.emergency_stopped,
-        program_running=True, connected=state.connected,
-    )
+    return dataclasses.replace(state, program_running=True)
 
 
 def _final_stop(arm: ArmInterface, decision: Decision, config: BridgeConfig) -> None:

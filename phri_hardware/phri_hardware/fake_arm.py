@@ -42,6 +42,8 @@ class FakeArmSpec:
         protective_stop_at: start of a protective stop (None = never).
         protective_stop_for: its duration [s].
         robot_mode, safety_mode: modes while no protective stop is scripted.
+        speed_scaling: the reported speed scaling, 0–1 (the pendant's slider; the fake arm
+            executes speedJ scaled by it, as the robot does).
         log_path: JSON-lines call log ("" = none).
     """
 
@@ -53,6 +55,7 @@ class FakeArmSpec:
     protective_stop_for: float = 1.0
     robot_mode: int = RobotMode.RUNNING
     safety_mode: int = SafetyMode.NORMAL
+    speed_scaling: float = 1.0
     log_path: str = ""
 
     def __call__(self) -> FakeArm:
@@ -148,6 +151,7 @@ class FakeArm:
             safety_mode=SafetyMode.PROTECTIVE_STOP if pstop else self.spec.safety_mode,
             protective_stopped=pstop, emergency_stopped=False,
             program_running=self._program_running, connected=self._connected,
+            speed_scaling=self.spec.speed_scaling if self._connected else 0.0,
         )
 
     def speed_j(self, qd: Sequence[float], acceleration: float, time: float) -> bool:
@@ -162,7 +166,7 @@ class FakeArm:
             return False
         if len(qd) != 6 or not all(math.isfinite(v) for v in qd):
             return False
-        self._target = [float(v) for v in qd]
+        self._target = [float(v) * self.spec.speed_scaling for v in qd]  # the slider scales it
         self._accel = acceleration
         return True
 

@@ -15,8 +15,10 @@ It speaks the receive side of Universal Robots' RTDE protocol, version 2, as doc
   the client asked for.
 
 Served outputs: ``timestamp``, ``actual_q``, ``actual_qd``, ``target_q``, ``target_qd``,
-``robot_mode``, ``safety_mode``, ``safety_status_bits``, ``runtime_state``, set from a
-:class:`FakeRobotState` a test can change while the server runs.
+``robot_mode``, ``safety_mode``, ``safety_status_bits``, ``runtime_state``, ``speed_scaling``,
+``target_speed_fraction``, set from a :class:`FakeRobotState` a test can change while the server
+runs (the last two: the trajectory limiter's scaling and the teach pendant's speed slider, which
+ur_rtde's ``getSpeedScalingCombined`` multiplies, as ur_robot_driver does).
 
 Safety of the fake itself: it binds 127.0.0.1 only, serves at most :data:`MAX_CLIENTS` clients
 at once (one thread each: ur_rtde's receive and control interfaces each open their own RTDE
@@ -56,6 +58,9 @@ class FakeRobotState:
     safety_mode: int = 1  # NORMAL
     protective_stopped: bool = False
     emergency_stopped: bool = False
+    speed_scaling: float = 1.0  # the trajectory limiter's scaling, 0–1
+    target_speed_fraction: float = 1.0  # the teach pendant's speed slider, 0–1
+    runtime_state: int = 2  # PLAYING (RTDE guide: 0 stopping … 4 paused, 5 resuming)
     lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
     def safety_status_bits(self) -> int:
@@ -75,7 +80,9 @@ _OUTPUTS: dict[str, tuple[str, str, Callable[[FakeRobotState, float], object]]] 
     "robot_mode": ("INT32", "i", lambda s, t: s.robot_mode),
     "safety_mode": ("INT32", "i", lambda s, t: s.safety_mode),
     "safety_status_bits": ("UINT32", "I", lambda s, t: s.safety_status_bits()),
-    "runtime_state": ("UINT32", "I", lambda s, t: 2),  # 2 = playing
+    "runtime_state": ("UINT32", "I", lambda s, t: s.runtime_state),
+    "speed_scaling": ("DOUBLE", "d", lambda s, t: s.speed_scaling),
+    "target_speed_fraction": ("DOUBLE", "d", lambda s, t: s.target_speed_fraction),
 }
 
 

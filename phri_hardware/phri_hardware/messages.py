@@ -8,7 +8,7 @@ from collections.abc import Sequence
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Twist, TwistStamped
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
+from std_msgs.msg import Float64, Float64MultiArray
 
 from phri_hardware.ur_arm import UR_JOINTS, ArmState
 
@@ -26,6 +26,17 @@ def arm_state_to_joint_state(names: Sequence[str], state: ArmState, stamp: Time)
     msg.position = [float(x) for x in state.q]
     msg.velocity = [float(x) for x in state.qd]
     return msg
+
+
+SPEED_SCALING_TOPIC = "speed_scaling_state_broadcaster/speed_scaling"
+"""ur_robot_driver's speed scaling topic (relative: ``/<arm>/…`` in an arm's namespace),
+std_msgs/Float64 in percent (docs/hardware.md, "Speed scaling")."""
+
+
+def speed_scaling_msg(fraction: float) -> Float64:
+    """The executed fraction of commanded speed (0–1) as ur_robot_driver publishes it: percent
+    0–100 (its speed_scaling_state_broadcaster multiplies the fraction by 100)."""
+    return Float64(data=100.0 * float(fraction))
 
 
 def state_is_finite(state: ArmState) -> bool:
@@ -62,11 +73,13 @@ def planar_twist_stamped(vx: float, vy: float, wz: float, frame_id: str,
 
 
 __all__ = [
+    "SPEED_SCALING_TOPIC",
     "arm_state_to_joint_state",
     "command_values",
     "joint_names",
     "planar_twist",
     "planar_twist_stamped",
+    "speed_scaling_msg",
     "state_is_finite",
     "twist_to_tuple",
 ]

@@ -19,9 +19,11 @@ from typing import Any
 
 from phri_hardware.ur_arm import DISCONNECTED_STATE, ArmState
 
-RECEIVE_VARIABLES = ["actual_q", "actual_qd", "robot_mode", "safety_mode", "safety_status_bits"]
+RECEIVE_VARIABLES = ["actual_q", "actual_qd", "robot_mode", "safety_mode", "safety_status_bits",
+                     "speed_scaling", "target_speed_fraction", "runtime_state"]
 """RTDE outputs the bridge reads (``isProtectiveStopped``/``isEmergencyStopped`` use the
-safety status bits)."""
+safety status bits; ``getSpeedScalingCombined`` the speed scaling, the pendant's speed slider
+and the runtime state)."""
 
 
 @dataclass(frozen=True)
@@ -90,6 +92,7 @@ class UrRtdeArm:
                     not self.receive_only and bool(self._control.isProgramRunning())
                 ),
                 connected=True,
+                speed_scaling=float(self._receive.getSpeedScalingCombined()),
             )
         except RuntimeError:
             return DISCONNECTED_STATE

@@ -98,6 +98,10 @@ class ArmState:
         emergency_stopped: an emergency stop is engaged.
         program_running: ur_rtde's control script runs on the controller (speedJ needs it).
         connected: both RTDE connections are up.
+        speed_scaling: the fraction of every commanded speed the robot executes, 0–1: the
+            teach pendant's speed slider (RTDE ``target_speed_fraction``) times the trajectory
+            limiter's scaling (``speed_scaling``), ramped up from 0 after a pause (ur_rtde
+            ``getSpeedScalingCombined``, the value ur_robot_driver publishes).
     """
 
     q: tuple[float, ...]
@@ -108,11 +112,13 @@ class ArmState:
     emergency_stopped: bool = False
     program_running: bool = True
     connected: bool = True
+    speed_scaling: float = 1.0
 
 
 DISCONNECTED_STATE = ArmState(
     q=(math.nan,) * 6, qd=(math.nan,) * 6, robot_mode=RobotMode.DISCONNECTED,
     safety_mode=SafetyMode.UNDEFINED_SAFETY_MODE, program_running=False, connected=False,
+    speed_scaling=0.0,
 )
 
 

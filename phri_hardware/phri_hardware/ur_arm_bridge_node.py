@@ -7,6 +7,10 @@ Run one per arm in the arm's namespace (``left`` / ``right``) with ``joint_prefi
   velocities [rad/s] in UR order);
 * publishes ``/joint_states`` (sensor_msgs/JointState, ``<joint_prefix><ur joint>``) once per
   control period from RTDE receive;
+* publishes ``speed_scaling_state_broadcaster/speed_scaling`` (std_msgs/Float64, percent 0–100,
+  as ur_robot_driver does) with each joint state: the fraction of every commanded speed the
+  robot executes (the teach pendant's speed slider × the trajectory limiter, ramped after a
+  pause), which the controller takes into account;
 * publishes ``/diagnostics`` (robot mode, safety mode, connection, counters).
 
 ``mode: monitor`` opens RTDE receive only: joint states and robot/safety mode are published,
@@ -27,7 +31,7 @@ from typing import Any
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
+from std_msgs.msg import Float64, Float64MultiArray
 
 from phri_common import paper
 from phri_common.params import ParamSpec, ParamValue
@@ -36,9 +40,11 @@ from phri_common.ros_params import declare_parameters
 from phri_hardware.arm_worker import ArmFactory, ArmLink, WorkerReport
 from phri_hardware.fake_arm import FakeArmSpec
 from phri_hardware.messages import (
+    SPEED_SCALING_TOPIC,
     arm_state_to_joint_state,
     command_values,
     joint_names,
+    speed_scaling_msg,
     state_is_finite,
 )
 from phri_hardware.rtde_arm import UrRtdeArmFactory
@@ -159,6 +165,7 @@ class UrArmBridgeNode(Node):
             monitor=self._monitor,
         )
         self._js_pub = self.create_publisher(JointState, "/joint_states", 10)
+        self._scaling_pub = self.create_publisher(Float64, SPEED_SCALING_TOPIC, 10)
         self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self._sub = self.create_subscription(
             Float64MultiArray, "forward_velocity_controller/commands", self._on_command, 10
@@ -216,6 +223,7 @@ class UrArmBridgeNode(Node):
         if state_is_finite(newest.state):
             stamp = self.get_clock().now().to_msg()
             self._js_pub.publish(arm_state_to_joint_state(self._names, newest.state, stamp))
+            self._scaling_pub.publish(speed_scaling_msg(newest.state.speed_scaling))
             self._joint_states_published += 1
 
     def diagnostic_status(self) -> DiagnosticStatus:
@@ -273,6 +281,7 @@ class UrArmBridgeNode(Node):
             KeyValue(key="protective_stopped", value=str(state.protective_stopped)),
             KeyValue(key="emergency_stopped", value=str(state.emergency_stopped)),
             KeyValue(key="program_running", value=str(state.program_running)),
+            KeyValue(key="speed_scaling", value=f"{100.0 * state.speed_scaling:.0f} %"),
             KeyValue(key="armed", value=str(report.armed)),
             KeyValue(key="moving", value=str(report.moving)),
             KeyValue(key="hold_reason", value=report.hold_reason),

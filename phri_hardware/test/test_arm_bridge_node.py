@@ -12,7 +12,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64MultiArray
+from std_msgs.msg import Float64, Float64MultiArray
 
 from phri_common.params import ParameterValueError
 from phri_common.testing import spin_until
@@ -43,7 +43,11 @@ class Harness:
             Float64MultiArray, "/left/forward_velocity_controller/commands", 10)
         self.joint_states: list[JointState] = []
         self.diagnostics: list[DiagnosticStatus] = []
+        self.speed_scaling: list[float] = []
         self.peer.create_subscription(JointState, "/joint_states", self.joint_states.append, 50)
+        self.peer.create_subscription(  # ur_robot_driver's topic, in the arm's namespace
+            Float64, "/left/speed_scaling_state_broadcaster/speed_scaling",
+            lambda m: self.speed_scaling.append(m.data), 50)
         self.peer.create_subscription(
             DiagnosticArray, "/diagnostics",
             lambda m: self.diagnostics.extend(s for s in m.status if "UR arm" in s.name), 10)
@@ -175,10 +179,15 @@ def test_monitor_mode_publishes_joint_states_from_rtde_and_refuses_commands(
     h = Harness(ros_context, None, backend="ur_rtde", robot_ip="127.0.0.1",
                 rtde_frequency=100.0, mode="monitor")
     try:
+        with rtde_server.state.lock:  # the pendant's slider at 30 %
+            rtde_server.state.target_speed_fraction = 0.3
         assert spin_until(h.executor, lambda: len(h.joint_states) >= 20, 15.0)
         js = h.joint_states[-1]
         assert js.name[0] == "left_shoulder_pan_joint"
         assert list(js.position) == pytest.approx(rtde_server.state.q)
+        # Published as ur_robot_driver publishes it: percent, with every joint state.
+        assert spin_until(h.executor, lambda: len(h.speed_scaling) >= 20, 5.0)
+        assert h.speed_scaling[-1] == pytest.approx(30.0)
         h.run(0.5, None)
         quiet = h.diagnostics[-1]
         assert quiet.level == DiagnosticStatus.OK and "monitor mode" in quiet.message

@@ -1,8 +1,12 @@
 """Static checks of docker/ (the image cannot be built on the development machines).
 
-A small rule set in the spirit of hadolint: pinned base images, non-interactive apt with cleaned
-lists, every workspace package copied into the image, colcon build and test, the Python
-dependencies taken from requirements.txt, and compose services that point at existing stages.
+A small rule set in the spirit of hadolint (which passes the Dockerfile too, docker/README.md):
+pinned base images, non-interactive apt with cleaned lists, apt versions pinned or the DL3008
+exception stated, no unquoted command substitution, every workspace package copied into the
+image, the dependencies installed the ROS way (rosdep install from the package manifests, the
+pip keys allowed past PEP 668, then requirements-ros.txt), colcon build, the suite in the test
+stage, and compose services that point at existing stages. requirements-ros.txt pins exact
+versions within requirements.txt's ranges.
 """
 
 from __future__ import annotations
@@ -16,6 +20,7 @@ import yaml
 ROOT = Path(__file__).resolve().parents[2]
 DOCKERFILE = ROOT / "docker" / "Dockerfile"
 COMPOSE = ROOT / "docker" / "compose.yaml"
+RUN_SUITE = ROOT / "docker" / "run_suite.sh"
 
 
 def instructions(text: str) -> list[tuple[str, str]]:
@@ -90,16 +95,73 @@ def lint(text: str, packages: list[str]) -> list[str]:
             if "pip install" in args and "--no-cache-dir" not in args and (
                     "PIP_NO_CACHE_DIR=1" not in text):
                 problems.append("pip install keeps its cache")
+            if re.search(r"(^|[\s=(])\$\(", args):
+                problems.append(f"RUN {args[:40]}…: unquoted command substitution (SC2046)")
     for pkg in packages:
         if pkg not in copied:
             problems.append(f"package directory {pkg} is not COPYed into the image")
-    joined = " ".join(a for k, a in ins if k == "RUN")
-    if "colcon build" not in joined:
+    problems += apt_pin_problems(text) + ros_way_problems(text, ins, copied)
+    return problems
+
+
+def apt_pin_problems(text: str) -> list[str]:
+    """DL3008: every ``apt-get install`` names ``pkg=version``, or its RUN is preceded by
+    ``# hadolint ignore=DL3008`` with a comment saying why."""
+    problems = []
+    lines = text.splitlines()
+    for i, line in enumerate(lines):
+        if not line.startswith("RUN") or "apt-get install" not in text_of_run(lines, i):
+            continue
+        run = text_of_run(lines, i)
+        packages = [w for w in run.split("apt-get install", 1)[1].split("&&")[0].split()
+                    if not w.startswith("-") and w != "\\"]
+        if all("=" in w for w in packages):
+            continue
+        comments = []
+        for above in reversed(lines[:i]):
+            if not above.startswith("#"):
+                break
+            comments.append(above)
+        if not any("hadolint ignore=DL3008" in c for c in comments):
+            problems.append(f"line {i + 1}: apt-get install without versions (DL3008)")
+        elif len(comments) < 2:
+            problems.append(f"line {i + 1}: DL3008 ignored without a reason")
+    return problems
+
+
+def text_of_run(lines: list[str], start: int) -> str:
+    """The RUN instruction starting at ``lines[start]`` with its continuation lines."""
+    out = []
+    for line in lines[start:]:
+        out.append(line.rstrip("\\").strip())
+        if not line.rstrip().endswith("\\"):
+            break
+    return " ".join(out)
+
+
+def ros_way_problems(text: str, ins: list[tuple[str, str]], copied: set[str]) -> list[str]:
+    """The dependencies come the ROS way: ``rosdep install --from-paths … --ignore-src -y``
+    after PIP_BREAK_SYSTEM_PACKAGES=1 (rosdep's -pip keys on Ubuntu 24.04), then the pinned
+    requirements-ros.txt; colcon build; the test stage runs docker/run_suite.sh."""
+    problems = []
+    runs = [a for k, a in ins if k == "RUN"]
+    rosdep = [a for a in runs if "rosdep install" in a]
+    if not any("--from-paths" in a and "--ignore-src" in a and " -y" in a for a in rosdep):
+        problems.append("no rosdep install --from-paths … --ignore-src -y")
+    env = " ".join(a for k, a in ins if k == "ENV")
+    if "PIP_BREAK_SYSTEM_PACKAGES=1" not in env:
+        problems.append("rosdep's -pip keys fail on Ubuntu 24.04 without "
+                        "PIP_BREAK_SYSTEM_PACKAGES=1")
+    if "requirements-ros.txt" not in copied or not any(
+            "-r /tmp/requirements-ros.txt" in a for a in runs):
+        problems.append("the pinned ROS-path set (requirements-ros.txt) is not installed")
+    if rosdep and runs.index(rosdep[0]) > min(
+            (i for i, a in enumerate(runs) if "-r /tmp/requirements-ros.txt" in a), default=0):
+        problems.append("requirements-ros.txt must come after rosdep (it pins over apt)")
+    if not any("colcon build" in a for a in runs):
         problems.append("no colcon build")
-    if "colcon test" not in joined or "colcon test-result" not in joined:
-        problems.append("no colcon test / colcon test-result")
-    if "requirements.txt" not in copied or "-r /tmp/requirements" not in joined:
-        problems.append("Python dependencies do not come from requirements.txt")
+    if "/phri_run_suite.sh" not in " ".join(runs):
+        problems.append("the test stage does not run docker/run_suite.sh")
     return problems
 
 
@@ -119,6 +181,16 @@ def test_the_dockerfile_passes_the_rules() -> None:
 
 
 @pytest.mark.parametrize(("snippet", "expected"), [
+    ("FROM ros:kilted-ros-base\nENV DEBIAN_FRONTEND=noninteractive\nRUN apt-get update && "
+     "apt-get install -y --no-install-recommends git && rm -rf /var/lib/apt/lists/*\n",
+     "DL3008"),
+    ("FROM ros:kilted-ros-base\nENV DEBIAN_FRONTEND=noninteractive\n# hadolint ignore=DL3008\n"
+     "RUN apt-get update && apt-get install -y --no-install-recommends git "
+     "&& rm -rf /var/lib/apt/lists/*\n", "without a reason"),
+    ("FROM ros:kilted-ros-base\nRUN echo $(ls)\n", "SC2046"),
+    ("FROM ros:kilted-ros-base\nRUN rosdep install --from-paths src -y\n", "--ignore-src"),
+    ("FROM ros:kilted-ros-base\nRUN rosdep install --from-paths src --ignore-src -y\n",
+     "PIP_BREAK_SYSTEM_PACKAGES"),
     ("FROM ros:latest\n", "'latest'"),
     ("FROM ros\n", "without a tag"),
     ("FROM ubuntu:24.04\n", "not an official ROS 2"),
@@ -136,6 +208,53 @@ def test_the_rules_catch_what_they_claim(snippet: str, expected: str) -> None:
     assert any("phri_common is not COPYed" in p for p in problems)
 
 
+def test_the_test_stage_runs_the_whole_suite() -> None:
+    """docker/run_suite.sh: what ./test.sh runs, on the image's colcon build, failing on any."""
+    script = "\n".join(line for line in RUN_SUITE.read_text(encoding="utf-8").splitlines()
+                       if not line.lstrip().startswith("#"))
+    steps = ["ruff check .", "; mypy", "colcon test ", "colcon test-result",
+             "colcon lint", "phri_common.junit_summary"]
+    positions = [script.find(step) for step in steps]
+    assert all(p >= 0 for p in positions) and positions == sorted(positions), positions
+    assert "--return-code-on-test-failure" in script and 'exit "$status"' in script
+    assert "--symlink-install" not in script  # the plain build the image installed
+
+
+def _version(text: str) -> tuple[int, ...]:
+    return tuple(int(part) for part in re.findall(r"\d+", text)[:3])
+
+
+def _ranges(path: Path) -> dict[str, list[tuple[str, str]]]:
+    """name → [(operator, version)] of a requirements file (lower-cased, - for _)."""
+    out: dict[str, list[tuple[str, str]]] = {}
+    for line in path.read_text(encoding="utf-8").splitlines():
+        line = line.split("#")[0].strip()
+        m = re.match(r"([A-Za-z0-9_.-]+)\s*(.*)", line)
+        if m:
+            out[m.group(1).lower().replace("_", "-")] = re.findall(
+                r"(==|>=|<=|<|>)\s*([0-9][0-9.]*)", m.group(2))
+    return out
+
+
+def test_ros_path_set_is_pinned_within_requirements_txt() -> None:
+    """requirements-ros.txt: exact versions (the set the suite ran on), each inside
+    requirements.txt's range, covering every module without a rosdep key, the pip keys and the
+    modules whose Ubuntu 24.04 apt version is below requirements.txt's minimum."""
+    ops = {">=": lambda a, b: a >= b, "<": lambda a, b: a < b, "<=": lambda a, b: a <= b,
+           ">": lambda a, b: a > b, "==": lambda a, b: a == b}
+    ros = _ranges(ROOT / "requirements-ros.txt")
+    pip_path = _ranges(ROOT / "requirements.txt")
+    for name, spec in ros.items():
+        assert len(spec) == 1 and spec[0][0] == "==", f"{name}: not an exact pin"
+        pinned = _version(spec[0][1])
+        for op, bound in pip_path.get(name, []):
+            assert ops[op](pinned, _version(bound)), f"{name} {spec[0][1]} outside {op}{bound}"
+    needed = {"daqp", "osqp", "ur-rtde", "foxglove-sdk", "imageio-ffmpeg",  # no rosdep key
+              "mujoco", "rosbags", "mcap-ros2-support",  # rosdep's -pip keys
+              "numpy", "scipy", "matplotlib", "numba", "websockets"}  # apt's too old / kept
+    assert needed <= set(ros), needed - set(ros)
+
+
 def test_compose_services_use_existing_stages() -> None:
     compose = yaml.safe_load(COMPOSE.read_text(encoding="utf-8"))
     services = compose["services"]
@@ -148,7 +267,8 @@ def test_compose_services_use_existing_stages() -> None:
         assert build["target"] in stages, f"{name}: unknown target {build['target']}"
     assert "DISPLAY" in services["rviz"]["environment"]
     assert any("/tmp/.X11-unix" in v for v in services["rviz"]["volumes"])
-    assert "colcon test" in " ".join(services["test"]["command"])
+    assert services["test"]["build"]["target"] == "test"
+    assert services["test"]["command"] == ["/phri_run_suite.sh"]
 
 
 def test_dockerignore_keeps_host_builds_out() -> None:

@@ -58,6 +58,38 @@ def test_monitor_mode_reads_the_robot_through_rtde_receive_only(
     assert I_SETUP_INPUTS not in rtde_server.received  # never asked for an input (command)
 
 
+def test_speed_scaling_is_read_as_ur_robot_driver_reads_it(rtde_server: FakeRtdeServer) -> None:
+    """ur_rtde's combined speed scaling: the pendant's slider (target_speed_fraction) times the
+    trajectory limiter's speed_scaling; 0 while a paused program resumes, then ramped back up
+    (ur_rtde's getSpeedScalingCombined, as ur_robot_driver computes it)."""
+    with rtde_server.state.lock:
+        rtde_server.state.speed_scaling = 0.5
+        rtde_server.state.target_speed_fraction = 0.6
+    link = _link(UrRtdeArmFactory("127.0.0.1", 100.0, receive_only=True), monitor=True)
+    link.start()
+    try:
+        reports = _poll_until(link, lambda lk, r: len(r) >= 10, timeout=15.0)
+        assert reports, f"no reports: {link.status}"
+        assert reports[-1].state.speed_scaling == pytest.approx(0.3)
+        with rtde_server.state.lock:
+            rtde_server.state.runtime_state = 4  # PAUSED
+        assert len(_poll_until(link, lambda lk, r: len(r) >= 5, 5.0)) >= 5
+        with rtde_server.state.lock:
+            rtde_server.state.runtime_state = 5  # RESUMING
+        resuming = _poll_until(link, lambda lk, r: any(x.state.speed_scaling == 0.0 for x in r),
+                               5.0)
+        assert resuming and resuming[-1].state.speed_scaling == 0.0
+        with rtde_server.state.lock:
+            rtde_server.state.runtime_state = 2  # PLAYING again: ramped up, not a jump
+        ramp = _poll_until(link, lambda lk, r: any(x.state.speed_scaling >= 0.3 - 1e-9
+                                                   for x in r), 10.0)
+        values = [x.state.speed_scaling for x in ramp]
+        assert values and values[-1] == pytest.approx(0.3)
+        assert any(0.0 < v < 0.3 for v in values), values
+    finally:
+        link.close()
+
+
 def test_control_mode_failing_at_the_dashboard_keeps_the_root_cause(
     rtde_server: FakeRtdeServer,
 ) -> None:

@@ -14,7 +14,8 @@ from phri_hardware.rtde_arm import RECEIVE_VARIABLES, UrRtdeArm, UrRtdeArmFactor
 from phri_hardware.ur_arm import RobotMode, SafetyMode
 
 RECEIVE_CALLS = ("isConnected", "getActualQ", "getActualQd", "getRobotMode", "getSafetyMode",
-                 "isProtectiveStopped", "isEmergencyStopped", "disconnect")
+                 "isProtectiveStopped", "isEmergencyStopped", "getSpeedScalingCombined",
+                 "disconnect")
 CONTROL_CALLS = ("isConnected", "isProgramRunning", "speedJ", "speedStop", "setWatchdog",
                  "kickWatchdog", "reuploadScript", "stopScript", "disconnect")
 
@@ -43,7 +44,7 @@ class Recorder:
             raise RuntimeError("RTDE connection lost")
         return {"getActualQ": [0.1] * 6, "getActualQd": [0.0] * 6,
                 "getRobotMode": 7, "getSafetyMode": 1, "isProtectiveStopped": False,
-                "isEmergencyStopped": False}.get(name, True)
+                "isEmergencyStopped": False, "getSpeedScalingCombined": 0.3}.get(name, True)
 
     def __getattr__(self, name: str) -> Any:
         return lambda *args: self._answer(name, *args)
@@ -80,6 +81,7 @@ def test_wrapper_maps_state_and_commands(fake_ur_rtde: dict[str, Recorder]) -> N
     state = arm.read_state()
     assert state.connected and state.q == (0.1,) * 6
     assert state.robot_mode == RobotMode.RUNNING and state.safety_mode == SafetyMode.NORMAL
+    assert state.speed_scaling == 0.3
     assert arm.speed_j([0.1] * 6, 2.0, 0.01)
     assert ("speedJ", ([0.1] * 6, 2.0, 0.01)) in fake_ur_rtde["rtde_control"].calls
     assert arm.speed_stop(4.0) and arm.set_watchdog(10.0) and arm.kick_watchdog()

@@ -7,6 +7,10 @@ Commands:
     velocities [rad/s] in the order shoulder_pan, shoulder_lift, elbow, wrist_1, wrist_2, wrist_3
     (ur_robot_driver's order), one ``dim`` labelled with the joint names joined by commas.
 
+Speed scaling (``<arm>/speed_scaling_state_broadcaster/speed_scaling``, ``std_msgs/Float64``,
+ur_robot_driver's topic, published by it and by phri_hardware's UR bridge): the fraction of every
+commanded joint speed the UR executes, in percent 0–100 (:func:`speed_scaling_fraction`).
+
 Task state (``~/state/<link>``, ``sensor_msgs/PointCloud2``, one point, self-describing fields —
 see :data:`TASK_STATE_FIELDS`): header.frame_id is the world frame; every vector is in it except
 ``center_link_*`` (ᶦp_η, link frame).
@@ -186,6 +190,45 @@ def msg_to_task_state(msg: PointCloud2) -> dict[str, float]:
     if missing:
         raise InputError(f"task state lacks fields {missing}")
     return {name: float(records[0][name]) for name in TASK_STATE_FIELDS}
+
+
+SPEED_SCALING_TOPIC = "speed_scaling_state_broadcaster/speed_scaling"
+"""ur_robot_driver's speed scaling topic, below each arm's namespace (``left/…``)."""
+
+
+def speed_scaling_fraction(percent: float) -> float:
+    """A speed scaling message's value [%] → the executed fraction of commanded speed [0, 1].
+
+    ur_robot_driver's speed_scaling_state_broadcaster publishes the robot's fraction times 100
+    (ur_controllers/src/speed_scaling_state_broadcaster.cpp, every branch from humble to main).
+
+    Raises:
+        InputError: not finite or outside 0–100 % (names the value and the range).
+    """
+    value = float(percent)
+    if not (math.isfinite(value) and 0.0 <= value <= 100.0):
+        raise InputError(f"speed scaling {value!r} %: allowed 0–100 % (ur_robot_driver's "
+                         "percent; a fraction 0–1 reads as at most 1 %)")
+    return value / 100.0
+
+
+def speed_scaling_status(node_name: str, scaling: dict[str, float], minimum: float
+                         ) -> DiagnosticStatus:
+    """The UR speed scaling as a diagnostic status: WARN while the smallest arm's scaling is
+    below ``minimum`` (zero command), OK otherwise; values: each arm's scaling [%]."""
+    smallest = min(scaling.values(), default=1.0)
+    level, message = DiagnosticStatus.OK, "commands scaled to the arms' speed scaling"
+    if not scaling:
+        message = "no speed scaling received: commands unscaled"
+    elif smallest < minimum:
+        level = DiagnosticStatus.WARN
+        message = (f"speed scaling {100 * smallest:.0f} % below min_speed_scaling "
+                   f"{100 * minimum:.0f} %: zero command")
+    values = {f"{arm}_speed_scaling": f"{100 * v:.0f} %" for arm, v in sorted(scaling.items())}
+    values["min_speed_scaling"] = f"{100 * minimum:.0f} %"
+    return DiagnosticStatus(
+        level=level, name=f"{node_name}: speed scaling", message=message,
+        hardware_id=node_name, values=[KeyValue(key=k, value=v) for k, v in values.items()])
 
 
 def safety_status(task: ContactTask, safety: Safety, node_name: str) -> DiagnosticStatus:

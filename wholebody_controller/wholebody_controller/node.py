@@ -1,8 +1,12 @@
 """ROS 2 node around :class:`~wholebody_controller.controller.WholeBodyController` (thin).
 
-Subscribes ``contacts/<link>`` (contact states), ``/joint_states`` and ``/odom``; at ``rate_hz``
-one control cycle publishes ``/cmd_vel``, ``left/…`` and
-``right/forward_velocity_controller/commands`` and ``~/state/<link>``. Safety (design §8): any
+Subscribes ``contacts/<link>`` (contact states), ``/joint_states``, ``/odom`` and each arm's UR
+speed scaling (``<arm>/speed_scaling_state_broadcaster/speed_scaling``, ur_robot_driver's topic);
+at ``rate_hz`` one control cycle publishes ``/cmd_vel``, ``left/…`` and
+``right/forward_velocity_controller/commands`` and ``~/state/<link>``. Speed scaling (the
+teach pendant's slider slows a UR's joints, not the base): below ``min_speed_scaling`` the cycle
+commands zero and warns; otherwise the step's command is scaled after the step so that every
+axis moves at the slowest arm's fraction (:func:`scale_to_slowest`). Safety (design §8): any
 input older than its timeout, a QP failure, or a refused (NaN) input leads to a zero command in
 that cycle; the next good cycle recovers; shutdown publishes zero. The freshness rules live in
 :mod:`wholebody_controller.freshness`: the node reports arrivals and asks it once per cycle. See
@@ -31,7 +35,7 @@ from __future__ import annotations
 import sys
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -44,7 +48,7 @@ from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState, PointCloud2
-from std_msgs.msg import Float64MultiArray
+from std_msgs.msg import Float64, Float64MultiArray
 from std_srvs.srv import Trigger
 
 from phri_common.cdr import (
@@ -73,11 +77,14 @@ from wholebody_controller.input_checks import (
     check_odometry_jump,
 )
 from wholebody_controller.messages import (
+    SPEED_SCALING_TOPIC,
     loop_status,
     odom_to_base,
     pose_to_base,
     positions_by_name,
     safety_status,
+    speed_scaling_fraction,
+    speed_scaling_status,
     task_state_to_msg,
 )
 from wholebody_controller.parameters import (
@@ -114,6 +121,37 @@ CONTACT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=25,
 held off the CPU for over 10 ms lost states in the DDS queue (bench_chain: 0.04 % of frames on a
 quiet machine, ≈ 5 % on a loaded one). Every queued state is read in order; the stamps' age
 check (``contact_timeout``) still refuses what is stale."""
+
+
+SCALING_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5,
+                         reliability=ReliabilityPolicy.BEST_EFFORT)
+"""UR speed scaling: only the newest value matters (ur_robot_driver offers it reliable, which a
+best-effort reader matches)."""
+
+ARM_COMMAND_SLICES: dict[str, slice] = {"left": slice(3, 9), "right": slice(9, 15)}
+"""Each arm's joint velocities in the 15-element command (base x, y, yaw first)."""
+
+
+def scale_to_slowest(command: NDArray[np.float64], scaling: Mapping[str, float]
+                     ) -> NDArray[np.float64]:
+    """The command that makes every axis move at the smallest speed scaling s = min(scaling):
+    the base (no pendant slows it) and an arm without a reading × s, each arm with a reading
+    s_arm × s / s_arm (its UR multiplies by s_arm itself), so the whole body keeps the direction
+    the QP chose at s × its speed. Never amplifies (s / s_arm ≤ 1); no reading: unchanged.
+
+    Args:
+        command: base twist [m/s, m/s, rad/s] then 12 arm joint velocities [rad/s].
+        scaling: executed fraction of commanded speed per arm, 0–1.
+    """
+    if not scaling:
+        return command
+    slowest = min(scaling.values())
+    out = command * slowest
+    for arm, part in ARM_COMMAND_SLICES.items():
+        own = scaling.get(arm)
+        if own is not None and own > 0.0:
+            out[part] = command[part] * (slowest / own)
+    return out
 
 
 class WholeBodyControllerNode(Node):
@@ -167,6 +205,10 @@ class WholeBodyControllerNode(Node):
         self.joint_limits = {name: (float(limits[i, 0]), float(limits[i, 1]))
                              for i, name in enumerate(joints) if name in self.arm_joints}
         self.safety: dict[str, Safety] = dict.fromkeys(self.links, Safety.OK)
+        self.speed_scaling: dict[str, float] = {}
+        """Executed fraction of commanded speed per arm (0–1), from its UR; none: unscaled."""
+        self._scaling_refused = False
+        self._scaling_warned_ns: int | None = None
         # Counters (diagnostics and tests).
         self.rejected_inputs = 0
         self.qp_failures = 0
@@ -220,6 +262,8 @@ class WholeBodyControllerNode(Node):
         ]
         inputs += [(JointState, "/joint_states", self.on_joints_bytes, qos_profile_sensor_data),
                    (Odometry, "/odom", self.on_odom_bytes, qos_profile_sensor_data)]
+        inputs += [(Float64, f"{arm}/{SPEED_SCALING_TOPIC}", self._scaling_handler(arm),
+                    SCALING_QOS) for arm in ARM_COMMAND_SLICES]
         for msg_type, topic, handler, qos in inputs:
             if self.control_loop == "thread":
                 self._polled.append((PolledSubscription(self, msg_type, topic, qos), handler))
@@ -243,6 +287,10 @@ class WholeBodyControllerNode(Node):
         """Serialized contact states of ``link`` → :meth:`on_contact_bytes` (looked up at each
         call: tests and benchmarks replace it on the instance)."""
         return lambda data: self.on_contact_bytes(link, data)
+
+    def _scaling_handler(self, arm: str) -> Callable[[bytes], None]:
+        """Serialized speed scaling of ``arm`` → :meth:`on_speed_scaling_bytes`."""
+        return lambda data: self.on_speed_scaling_bytes(arm, data)
 
     # -- parameters -----------------------------------------------------------------------------
     def _config(self, values: dict[str, ParamValue]) -> Any:
@@ -380,6 +428,47 @@ class WholeBodyControllerNode(Node):
         self.base_q = base
         self.freshness.odom_arrived(self.now_s())
 
+    def on_speed_scaling_bytes(self, arm: str, data: bytes) -> None:
+        """A serialized speed scaling of ``arm`` (std_msgs/Float64, percent); unreadable bytes
+        are refused like a bad value."""
+        try:
+            percent = float(deserialize_message(data, Float64).data)
+        except Exception as err:  # rclpy raises its own error types for bytes it cannot read
+            self._refuse(f"speed scaling of {arm}", err)
+            self.speed_scaling[arm] = 0.0
+            return
+        self.take_speed_scaling(arm, percent)
+
+    def take_speed_scaling(self, arm: str, percent: float) -> None:
+        """Keep ``arm``'s speed scaling [%] as a fraction; a refused value counts as 0 (zero
+        command) until the next good one."""
+        try:
+            self.speed_scaling[arm] = speed_scaling_fraction(percent)
+        except InputError as err:
+            self._refuse(f"speed scaling of {arm}", err)
+            self.speed_scaling[arm] = 0.0
+
+    def _speed_scaling_refuses(self, now_ns: int) -> bool:
+        """True while the slowest arm's speed scaling is below ``min_speed_scaling``: the cycle
+        commands zero, the tasks are reset once, a warning at most once a second (the node's own
+        throttle: rclpy's costs milliseconds per call even when it throttles)."""
+        minimum = float(self.params["min_speed_scaling"])
+        slowest = min(self.speed_scaling.values(), default=1.0)
+        if slowest >= minimum:
+            self._scaling_refused = False
+            return False
+        if not self._scaling_refused:
+            self._scaling_refused = True
+            if self.controller is not None:
+                self.controller.reset()
+        if self._scaling_warned_ns is None or now_ns - self._scaling_warned_ns >= 1_000_000_000:
+            self._scaling_warned_ns = now_ns
+            arms = ", ".join(f"{a} {100 * v:.0f} %" for a, v in sorted(self.speed_scaling.items()))
+            self.get_logger().warning(
+                f"UR speed scaling ({arms}) below min_speed_scaling {100 * minimum:.0f} %: zero "
+                "command (raise the teach pendant's speed slider, or lower min_speed_scaling)")
+        return True
+
     # -- services -------------------------------------------------------------------------------
     def _record_q_dance(self, _req: Trigger.Request, res: Trigger.Response) -> Trigger.Response:
         with self.cycle_lock:
@@ -459,6 +548,10 @@ class WholeBodyControllerNode(Node):
             self.zero_cycles += 1
             self.publish_zero()
             return
+        if self._speed_scaling_refuses(now_ns):
+            self.zero_cycles += 1
+            self.publish_zero()
+            return
         q = np.concatenate([self.base_q, self.arm_q])
         try:
             result = self.controller.step(q, self.contacts)
@@ -472,7 +565,7 @@ class WholeBodyControllerNode(Node):
             self.publish_zero()
             return
         self._track_safety(result.tasks)
-        self.publish_command(result.command)
+        self.publish_command(scale_to_slowest(result.command, self.speed_scaling))
         frame = str(self.params["world_frame"])
         for i, task in enumerate(result.tasks):
             pub = self.state_pubs[task.link]
@@ -500,7 +593,10 @@ class WholeBodyControllerNode(Node):
         with self.cycle_lock:
             statuses = [safety_status(task, self.safety.get(task.link, Safety.OK), name)
                         for task in self.controller.tasks]
+            scaling = dict(self.speed_scaling)
         statuses.append(loop_status(name, self.control_loop, self.loop, self.fatal_error))
+        statuses.append(speed_scaling_status(name, scaling,
+                                             float(self.params["min_speed_scaling"])))
         msg = DiagnosticArray(status=statuses)
         msg.header.stamp = ns_to_stamp(self.clock_ns())
         self.diag_pub.publish(msg)

@@ -130,6 +130,12 @@ GLOBAL_PARAMS: list[ParamSpec] = [
     ParamSpec("max_odom_jump", 0.5,
               "odometry whose position jumps farther between two messages is refused", "m",
               1e-3, 100.0),
+    ParamSpec("min_speed_scaling", 0.5,
+              "least UR speed scaling (teach-pendant slider × trajectory limiter, read from "
+              "<arm>/speed_scaling_state_broadcaster/speed_scaling) the controller commands "
+              "at: below it zero command and a warning; at or above it every joint is "
+              "commanded so that all move at the smallest arm's fraction (none received: 1)",
+              "-", 0.0, 1.0),
 ]
 
 LINK_SUFFIXES: tuple[str, ...] = (
