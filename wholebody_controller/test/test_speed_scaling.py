@@ -110,7 +110,7 @@ def test_below_the_minimum_zero_and_a_warning_then_recovery(node: RecordingNode)
     status = speed_scaling_status("n", dict(node.speed_scaling), 0.5)
     assert status.level == DiagnosticStatus.WARN and "30 %" in status.message
     assert node.controller is not None
-    assert all(t.life_cycle.reference is None for t in node.controller.tasks)  # reset once
+    assert all(t.locked_reference is None for t in node.controller.tasks)  # reset once
     result = node.set_parameters([Parameter("min_speed_scaling", value=0.25)])
     assert result[0].successful
     assert moving(node.cycle())  # allowed now: commanded, scaled
