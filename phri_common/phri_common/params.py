@@ -11,8 +11,8 @@ docs test compares the page's table, row by row and cell by cell, with the rende
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 ParamValue = bool | int | float | str | list[bool] | list[int] | list[float] | list[str]
@@ -79,7 +79,7 @@ class ParamSpec:
                 raise self._error(value, f"expected {self.length} elements, got {len(items)}")
             if len(items) < self.min_length:
                 raise self._error(value, f"expected at least {self.min_length} elements")
-            return [self._check_scalar(item, value) for item in items]
+            return [self._check_scalar(item, value, i) for i, item in enumerate(items)]
         return self._check_scalar(value, value)
 
     @property
@@ -90,7 +90,7 @@ class ParamSpec:
             sample = sample[0] if sample else ""
         return type(sample)
 
-    def _check_type(self, item: Any, whole: Any) -> Any:
+    def _check_type(self, item: Any, whole: Any, index: int | None = None) -> Any:
         kind = self.kind
         ok = isinstance(item, kind) and (kind is bool or not isinstance(item, bool))
         if kind is float and isinstance(item, int) and not isinstance(item, bool):
@@ -98,32 +98,36 @@ class ParamSpec:
         if not ok:
             what = "an array of " if self.is_array else ""
             raise self._error(whole, f"expected {what}{kind.__name__}, got "
-                                     f"{type(item).__name__}")
+                                     f"{type(item).__name__}", index)
         return item
 
-    def _check_scalar(self, item: Any, whole: Any) -> Any:
-        item = self._check_type(item, whole)
+    def _check_scalar(self, item: Any, whole: Any, index: int | None = None) -> Any:
+        item = self._check_type(item, whole, index)
         if isinstance(item, (bool, str)):
             return item
         if isinstance(item, (int, float)):
             x = float(item)
+            why = None
             if math.isnan(x):
-                raise self._error(whole, "NaN is not allowed")
-            if self.low is not None and x < self.low:
-                raise self._error(whole, "below the allowed range")
-            if self.high is not None and x > self.high:
-                raise self._error(whole, "above the allowed range")
-            if math.isinf(x) and (self.high is None or not math.isinf(self.high)) and x > 0:
-                raise self._error(whole, "infinity is not allowed")
-            if math.isinf(x) and x < 0 and (self.low is None or not math.isinf(self.low)):
-                raise self._error(whole, "-infinity is not allowed")
+                why = "NaN is not allowed"
+            elif self.low is not None and x < self.low:
+                why = "below the allowed range"
+            elif self.high is not None and x > self.high:
+                why = "above the allowed range"
+            elif math.isinf(x) and (self.high is None or not math.isinf(self.high)) and x > 0:
+                why = "infinity is not allowed"
+            elif math.isinf(x) and x < 0 and (self.low is None or not math.isinf(self.low)):
+                why = "-infinity is not allowed"
+            if why is not None:
+                raise self._error(whole if index is None else item, why, index)
             return item
-        raise self._error(whole, f"unsupported type {type(item).__name__}")
+        raise self._error(whole, f"unsupported type {type(item).__name__}", index)
 
-    def _error(self, value: Any, why: str) -> ParameterValueError:
+    def _error(self, value: Any, why: str, index: int | None = None) -> ParameterValueError:
         unit = "" if self.unit == "-" else f" [{self.unit}]"
+        name = self.name if index is None else f"{self.name}[{index}]"
         return ParameterValueError(
-            f"parameter '{self.name}'{unit} refused value {value!r}: {why}; "
+            f"parameter '{name}'{unit} refused value {value!r}: {why}; "
             f"allowed range: {self.range_text()}"
         )
 
@@ -171,3 +175,48 @@ def table_in(markdown: str, first_parameter: str) -> str:
                 end += 1
             return "\n".join(lines[i:end])
     return ""
+
+
+def setting(name: str, default: Any, description: str, unit: str = "-",
+            low: float | None = None, high: float | None = None, **options: Any) -> Any:
+    """A dataclass field that is also a parameter: its default, and the :class:`ParamSpec`
+    (ROS name ``name``, unit, range, description) in its metadata under ``"param"``.
+
+    The configuration dataclass is then the one record of the parameter: the node declares
+    :func:`settings_of` it, the docs table renders it, :func:`check_settings` validates it and
+    the code that reads the field is the one that uses it. ``options`` go to :class:`ParamSpec`
+    (``length``, ``read_only``, …); a tuple default is declared as a ROS array.
+    """
+    ros_default = list(default) if isinstance(default, tuple) else default
+    spec = ParamSpec(name, ros_default, description, unit, low, high, **options)
+    return field(default=default, metadata={"param": spec})
+
+
+def settings_of(cls: type) -> list[ParamSpec]:
+    """The :class:`ParamSpec` of every :func:`setting` field of a dataclass, in field order."""
+    return [f.metadata["param"] for f in fields(cls) if "param" in f.metadata]
+
+
+def check_settings(obj: Any) -> None:
+    """Validate every :func:`setting` field of a dataclass instance against its spec.
+
+    Raises:
+        ParameterValueError: a value outside its range (the message names the parameter).
+    """
+    for f in fields(obj):
+        spec = f.metadata.get("param")
+        if spec is not None:
+            value = getattr(obj, f.name)
+            spec.check(list(value) if isinstance(value, tuple) else value)
+
+
+def values_for(cls: type, values: Mapping[str, Any]) -> dict[str, Any]:
+    """Keyword arguments for ``cls`` from parameter ``values`` keyed by ROS name: every
+    :func:`setting` field whose parameter is in ``values`` (arrays as tuples)."""
+    out = {}
+    for f in fields(cls):
+        spec = f.metadata.get("param")
+        if spec is not None and spec.name in values:
+            value = values[spec.name]
+            out[f.name] = tuple(value) if isinstance(value, list) else value
+    return out

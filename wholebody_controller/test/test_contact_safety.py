@@ -91,7 +91,7 @@ def test_regain_budget_bounds_distance_and_time() -> None:
 
 
 def test_safety_config_refusals_name_the_field() -> None:
-    with pytest.raises(ValueError, match=r"fade_start = 1\.0 is out of range"):
+    with pytest.raises(ValueError, match=r"parameter .force_fade_start. refused value 1\.0"):
         SafetyConfig(fade_start=1.0)
     with pytest.raises(ValueError, match="force_limit"):
         LinkTaskConfig(LINK, force_limit=300.0, transient_force_limit=200.0)

@@ -159,7 +159,7 @@ def test_other_kinematics_run_the_generic_path_alike(kernel: str) -> None:
 
 
 def test_unknown_kernel_is_refused_naming_the_parameter() -> None:
-    with pytest.raises(ValueError, match="kernel refused value 'fortran'"):
+    with pytest.raises(ValueError, match="parameter 'kernel' refused value 'fortran'"):
         ControllerConfig(kernel="fortran")
     values = {spec.name: spec.default for spec in PARAMS}
     values["kernel"] = "fortran"

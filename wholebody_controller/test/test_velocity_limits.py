@@ -107,12 +107,12 @@ def test_bad_per_axis_value_is_refused_by_name(bad: float) -> None:
 
 
 def test_wrong_length_is_refused_by_name(kin: KinematicsModel) -> None:
-    with pytest.raises(ValueError, match="velocity_limits has 14 entries"):
+    with pytest.raises(ValueError, match=r"'velocity_limits'.*15 elements"):
         WholeBodyController(kin, ControllerConfig(velocity_limits=PER_AXIS[:14]))
     spec = next(s for s in GLOBAL_PARAMS if s.name == "velocity_limits")
     with pytest.raises(ParameterValueError, match=r"'velocity_limits'.*15 elements"):
         spec.check(list(PER_AXIS[:14]))
-    with pytest.raises(ParameterValueError, match=r"'velocity_limits'.*above"):
+    with pytest.raises(ParameterValueError, match=r"'velocity_limits\[0\]'.* refused value 11\.0: above"):
         spec.check([11.0] * 15)
 
 

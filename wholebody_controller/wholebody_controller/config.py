@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 from phri_common import paper
 from phri_common.iso15066 import BODY_REGIONS, region_of_link
 from phri_common.paper import Vector6
+from phri_common.params import check_settings, setting
 from phri_description.description import SKIN_LINKS, robot_description
 from wholebody_controller.contact_safety import SafetyConfig
 
@@ -210,52 +211,54 @@ class ControllerConfig:
     """
 
     links: tuple[LinkTaskConfig, ...] = tuple(LinkTaskConfig(name) for name in SKIN_LINKS)
-    k_eta: float = paper.K_ETA
-    b: float = paper.B
-    k_p: float = paper.K_P
-    psi_thr: float = paper.PSI_THR
-    epsilon: float = paper.EPSILON
-    horizon: float = paper.HORIZON
-    rate_hz: float = paper.CONTROL_RATE_HZ
-    region_margin: float = paper.REGION_MARGIN
-    region_window: float = 0.0
-    region_hysteresis: float = 0.0
-    velocity_limit: float = paper.VELOCITY_LIMIT
-    velocity_limits: tuple[float, ...] = ROBOT_VELOCITY_LIMITS
+    k_eta: float = setting("k_eta", paper.K_ETA, "track-force gain k_η of (12)", "N/m",
+                           0.0, 1e5)
+    b: float = setting("b", paper.B, "priority shape b of (15)", "s²/m²", 0.0, 1e6)
+    k_p: float = setting("k_p", paper.K_P, "task-space gain K_p of (19)", "1/s", 0.0, 1000.0)
+    psi_thr: float = setting("psi_thr", paper.PSI_THR,
+                             "activation threshold ψ_thr (also the weight floor)", "-",
+                             1e-12, 0.5)
+    epsilon: float = setting("epsilon", paper.EPSILON, "QP regularisation ε of (23)", "-",
+                             1e-9, 1e6)
+    horizon: float = setting("horizon", paper.HORIZON, "position-limit horizon h of (22)", "s",
+                             1e-3, 10.0)
+    rate_hz: float = setting("rate_hz", paper.CONTROL_RATE_HZ,
+                             "control rate (timer and admittance discretisation)", "Hz",
+                             1.0, 1000.0, read_only=True)
+    region_margin: float = setting("region_margin", paper.REGION_MARGIN,
+                                   "margin around the region locked as Ω_d", "m", 0.0, 1.0)
+    region_window: float = setting(
+        "region_window", 0.0, "onset window: Ω_d grows to the union of the touch's regions "
+        "(+ margin) for this long (0 = paper: the first frame)", "s", 0.0, 10.0)
+    region_hysteresis: float = setting(
+        "region_hysteresis", 0.0, "a face of Ω_i engages the track force only beyond this "
+        "overshoot, disengages inside Ω_d (0 = paper (10)–(11))", "m", 0.0, 1.0)
+    velocity_limit: float = setting(
+        "velocity_limit", paper.VELOCITY_LIMIT,
+        "|q̇| bound of every joint and base axis (Table II), within the robot's own",
+        "rad/s or m/s", 0.0, 10.0)
+    velocity_limits: tuple[float, ...] = setting(
+        "velocity_limits", ROBOT_VELOCITY_LIMITS, "|q̇| bound of each axis in q order (base x, "
+        "y, yaw, left then right arm joints), within velocity_limit and the robot's own",
+        "m/s or rad/s", 0.0, 10.0, length=15)
     joint_ranges: tuple[JointRange, ...] = ()
-    solver: str = "daqp"
-    kernel: str = KERNELS[0]
+    solver: str = setting("solver", "daqp",
+                          "QP backend: daqp (exact, default) or osqp (warm-started)")
+    kernel: str = setting("kernel", KERNELS[0], "how the tasks, Jacobians and QP of a step are "
+                          "computed: numba (compiled, default) or python (the same functions "
+                          "interpreted); same command to rounding")
     safety: SafetyConfig = field(default_factory=SafetyConfig)
-    lead_moment: bool = False
+    lead_moment: bool = setting(
+        "lead_moment", False, "follow a turning lead: moment of the contact force about the "
+        "contact region's middle (F1) and a leashed reference (F2); false = the paper's task")
 
     def __post_init__(self) -> None:
-        checks = {
-            "k_eta": self.k_eta >= 0.0,
-            "b": self.b >= 0.0,
-            "k_p": self.k_p >= 0.0,
-            "psi_thr": 0.0 < self.psi_thr < 1.0,
-            "epsilon": self.epsilon > 0.0,
-            "horizon": self.horizon > 0.0,
-            "rate_hz": self.rate_hz > 0.0,
-            "region_margin": self.region_margin >= 0.0,
-            "region_window": self.region_window >= 0.0,
-            "region_hysteresis": self.region_hysteresis >= 0.0,
-            "velocity_limit": self.velocity_limit >= 0.0,
-        }
-        for name, ok in checks.items():
+        check_settings(self)
+        for name, allowed in (("solver", SOLVERS), ("kernel", KERNELS)):
             value = getattr(self, name)
-            if not ok or not math.isfinite(value):
-                raise ValueError(f"controller config: {name} = {value!r} is out of range")
-        for k, v in enumerate(self.velocity_limits):
-            if not (math.isfinite(v) and v >= 0.0):
-                raise ValueError(f"controller config: velocity_limits[{k}] = {v!r} is out of "
-                                 "range [0, inf)")
-        if self.solver not in SOLVERS:
-            raise ValueError(f"controller config: solver must be one of {SOLVERS}, got "
-                             f"{self.solver!r}")
-        if self.kernel not in KERNELS:
-            raise ValueError(f"controller config: kernel refused value {self.kernel!r}: allowed "
-                             f"{list(KERNELS)}")
+            if value not in allowed:
+                raise ValueError(f"parameter '{name}' refused value {value!r}: allowed "
+                                 f"{', '.join(allowed)}")
         names = [t.link for t in self.links]
         if len(set(names)) != len(names):
             raise ValueError(f"controller config: duplicate links in {names}")

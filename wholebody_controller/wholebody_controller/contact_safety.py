@@ -30,11 +30,11 @@ open-loop push.
 from __future__ import annotations
 
 import enum
-import math
 from dataclasses import dataclass
 
 from phri_common import paper
 from phri_common.jit import jitable
+from phri_common.params import check_settings, setting
 from wholebody_controller.so3 import Vec3
 
 
@@ -53,34 +53,34 @@ class Safety(enum.IntEnum):
 
 @dataclass(frozen=True)
 class SafetyConfig:
-    """Global settings of the graded response and of contact gating (see module docstring).
+    """Global settings of the graded response and of contact gating (see module docstring);
+    each field is also the node parameter named in its :func:`setting`.
 
     Attributes:
-        fade_start: a, fraction of the limit where fading starts, in [0, 1).
-        reset_ratio: r, fraction of the limit below which yielding ends, in (0, 1].
+        fade_start: a, fraction of the limit where fading starts.
+        reset_ratio: r, fraction of the limit below which yielding ends.
         yield_speed: speed of the contact centre away from the contact while yielding [m/s].
         regain_distance: link-frame travel allowed without contact under a desired force [m].
         regain_time: time allowed without contact under a desired force [s].
     """
 
-    fade_start: float = 0.5
-    reset_ratio: float = 0.5
-    yield_speed: float = paper.VELOCITY_LIMIT
-    regain_distance: float = 0.15
-    regain_time: float = 2.0
+    fade_start: float = setting(
+        "force_fade_start", 0.5, "fraction of a link's force_limit where desired force and "
+        "approach start to fade", "-", 0.0, 0.99)
+    reset_ratio: float = setting(
+        "force_reset_ratio", 0.5, "fraction of force_limit below which a yielding link resumes",
+        "-", 0.01, 1.0)
+    yield_speed: float = setting(
+        "yield_speed", paper.VELOCITY_LIMIT, "speed of a contact centre away from a contact at "
+        "its force_limit", "m/s", 0.0, 1.0)
+    regain_distance: float = setting(
+        "regain_distance", 0.15, "link travel allowed without contact under a desired force",
+        "m", 0.0, 1.0)
+    regain_time: float = setting(
+        "regain_time", 2.0, "time allowed without contact under a desired force", "s", 0.0, 60.0)
 
     def __post_init__(self) -> None:
-        checks = {
-            "fade_start": (0.0 <= self.fade_start < 1.0, "[0, 1)"),
-            "reset_ratio": (0.0 < self.reset_ratio <= 1.0, "(0, 1]"),
-            "yield_speed": (self.yield_speed >= 0.0, "≥ 0"),
-            "regain_distance": (self.regain_distance >= 0.0, "≥ 0"),
-            "regain_time": (self.regain_time >= 0.0, "≥ 0"),
-        }
-        for name, (ok, allowed) in checks.items():
-            value = getattr(self, name)
-            if not ok or not math.isfinite(value):
-                raise ValueError(f"safety config: {name} = {value!r} is out of range {allowed}")
+        check_settings(self)
 
 
 @jitable

@@ -13,11 +13,9 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from phri_common import paper
-from phri_common.params import ParamSpec
+from phri_common.params import ParamSpec, settings_of, values_for
 from phri_description.description import SKIN_LINKS
 from wholebody_controller.config import (
-    KERNELS,
-    ROBOT_VELOCITY_LIMITS,
     AdmittanceGains,
     ControllerConfig,
     LinkTaskConfig,
@@ -58,10 +56,7 @@ def control_loop_mode(value: str, use_sim_time: bool) -> str:
     return value
 
 
-GLOBAL_PARAMS: list[ParamSpec] = [
-    ParamSpec("rate_hz", paper.CONTROL_RATE_HZ,
-              "control rate (timer and admittance discretisation)", "Hz",
-              1.0, 1000.0, read_only=True),
+NODE_PARAMS: list[ParamSpec] = [
     ParamSpec("control_loop", CONTROL_LOOPS[0], "what runs the control cycle: thread (its own "
               "thread at absolute deadlines, inputs taken at each cycle), timer (an executor "
               "timer, inputs by callbacks; follows /clock), auto (timer under use_sim_time, "
@@ -69,26 +64,6 @@ GLOBAL_PARAMS: list[ParamSpec] = [
     ParamSpec("thread_priority", 0, "control_loop thread: 0 = the normal scheduler, 1–99 = "
               "SCHED_FIFO at that priority (needs an rtprio limit or CAP_SYS_NICE; refused → "
               "warning, normal scheduler)", "-", 0, 99, read_only=True),
-    ParamSpec("k_eta", paper.K_ETA, "track-force gain k_η of (12)", "N/m", 0.0, 1e5),
-    ParamSpec("b", paper.B, "priority shape b of (15)", "s²/m²", 0.0, 1e6),
-    ParamSpec("k_p", paper.K_P, "task-space gain K_p of (19)", "1/s", 0.0, 1000.0),
-    ParamSpec("psi_thr", paper.PSI_THR, "activation threshold ψ_thr (also the weight floor)",
-              "-",
-              1e-12, 0.5),
-    ParamSpec("epsilon", paper.EPSILON, "QP regularisation ε of (23)", "-", 1e-9, 1e6),
-    ParamSpec("horizon", paper.HORIZON, "position-limit horizon h of (22)", "s", 1e-3, 10.0),
-    ParamSpec("region_margin", paper.REGION_MARGIN, "margin around the region locked as Ω_d",
-              "m", 0.0, 1.0),
-    ParamSpec("region_window", 0.0, "onset window: Ω_d grows to the union of the touch's "
-              "regions (+ margin) for this long (0 = paper: the first frame)", "s", 0.0, 10.0),
-    ParamSpec("region_hysteresis", 0.0, "a face of Ω_i engages the track force only beyond "
-              "this overshoot, disengages inside Ω_d (0 = paper (10)–(11))", "m", 0.0, 1.0),
-    ParamSpec("velocity_limit", paper.VELOCITY_LIMIT,
-              "|q̇| bound of every joint and base axis (Table II), within the robot's own",
-              "rad/s or m/s", 0.0, 10.0),
-    ParamSpec("velocity_limits", list(ROBOT_VELOCITY_LIMITS),
-              "|q̇| bound of each axis in q order (base x, y, yaw, left then right arm joints), "
-              "within velocity_limit and the robot's own", "m/s or rad/s", 0.0, 10.0, length=15),
     ParamSpec("q_dance_enabled", False,
               "hold each arm joint within q_dance ± q_dance_range (waltz, Sec. VI-B)"),
     ParamSpec("q_dance", [0.0] * 12,
@@ -96,31 +71,12 @@ GLOBAL_PARAMS: list[ParamSpec] = [
               "rad", -7.0, 7.0, length=12),
     ParamSpec("q_dance_range", paper.Q_DANCE_HALF_WIDTH,
               "half width of the q_dance joint ranges", "rad", 0.0, 6.3),
-    ParamSpec("lead_moment", False,
-              "follow a turning lead: moment of the contact force about the contact region's "
-              "middle (F1) and a leashed reference (F2); false = the paper's task"),
-    ParamSpec("solver", "daqp", "QP backend: daqp (exact, default) or osqp (warm-started)"),
-    ParamSpec("kernel", KERNELS[0], "how the tasks, Jacobians and QP of a step are computed: "
-              "numba (compiled, default) or python (the reference); same command to rounding"),
     ParamSpec("contact_timeout", 0.1, "contact state older than this → zero command", "s",
               1e-3, 10.0),
     ParamSpec("joint_state_timeout", 0.1, "joint state older than this → zero command", "s",
               1e-3, 10.0),
     ParamSpec("odom_timeout", 0.1, "odometry older than this → zero command", "s", 1e-3, 10.0),
     ParamSpec("world_frame", "odom", "frame_id of the task-state messages", read_only=True),
-    # Contact safety (issue 11; docs: "Contact safety").
-    ParamSpec("force_fade_start", SafetyConfig.fade_start,
-              "fraction of a link's force_limit where desired force and approach start to fade",
-              "-", 0.0, 0.99),
-    ParamSpec("force_reset_ratio", SafetyConfig.reset_ratio,
-              "fraction of force_limit below which a yielding link resumes", "-", 0.01, 1.0),
-    ParamSpec("yield_speed", SafetyConfig.yield_speed,
-              "speed of a contact centre away from a contact at its force_limit", "m/s",
-              0.0, 1.0),
-    ParamSpec("regain_distance", SafetyConfig.regain_distance,
-              "link travel allowed without contact under a desired force", "m", 0.0, 1.0),
-    ParamSpec("regain_time", SafetyConfig.regain_time,
-              "time allowed without contact under a desired force", "s", 0.0, 60.0),
     ParamSpec("max_contact_force", 5000.0,
               "contact states with a larger |force| are refused as impossible", "N",
               1.0, 1e6),
@@ -137,6 +93,13 @@ GLOBAL_PARAMS: list[ParamSpec] = [
               "commanded so that all move at the smallest arm's fraction (none received: 1)",
               "-", 0.0, 1.0),
 ]
+"""The node's own parameters (inputs, timeouts, the control loop, the dance band)."""
+
+GLOBAL_PARAMS: list[ParamSpec] = [
+    *settings_of(ControllerConfig), *settings_of(SafetyConfig), *NODE_PARAMS]
+"""Every controller-wide parameter: the controller's and the contact safety's settings (each
+declared once, as a field of :class:`ControllerConfig` / :class:`SafetyConfig`), then the
+node's own."""
 
 LINK_SUFFIXES: tuple[str, ...] = (
     "inertia", "damping", "stiffness", "priority_lock", "desired_force", "force_limit",
@@ -204,16 +167,6 @@ def _link_config(values: Mapping[str, Any], link: str) -> LinkTaskConfig:
     )
 
 
-def _safety_config(values: Mapping[str, Any]) -> SafetyConfig:
-    return SafetyConfig(
-        fade_start=float(values["force_fade_start"]),
-        reset_ratio=float(values["force_reset_ratio"]),
-        yield_speed=float(values["yield_speed"]),
-        regain_distance=float(values["regain_distance"]),
-        regain_time=float(values["regain_time"]),
-    )
-
-
 def config_from_values(
     values: Mapping[str, Any], links: Sequence[str], arm_joints: Sequence[str]
 ) -> ControllerConfig:
@@ -227,33 +180,12 @@ def config_from_values(
     Raises:
         ValueError: a combination is refused; the message names the parameter.
     """
-    solver = str(values["solver"])
-    if solver not in ("daqp", "osqp"):
-        raise ValueError(f"parameter 'solver' refused value {solver!r}: allowed daqp, osqp")
-    kernel = str(values["kernel"])
-    if kernel not in KERNELS:
-        raise ValueError(f"parameter 'kernel' refused value {kernel!r}: allowed "
-                         f"{', '.join(KERNELS)}")
     ranges = ()
     if bool(values["q_dance_enabled"]):
         ranges = dance_ranges(arm_joints, list(values["q_dance"]), float(values["q_dance_range"]))
     return ControllerConfig(
         links=tuple(_link_config(values, link) for link in links),
-        k_eta=float(values["k_eta"]),
-        b=float(values["b"]),
-        k_p=float(values["k_p"]),
-        psi_thr=float(values["psi_thr"]),
-        epsilon=float(values["epsilon"]),
-        horizon=float(values["horizon"]),
-        rate_hz=float(values["rate_hz"]),
-        region_margin=float(values["region_margin"]),
-        region_window=float(values["region_window"]),
-        region_hysteresis=float(values["region_hysteresis"]),
-        velocity_limit=float(values["velocity_limit"]),
-        velocity_limits=tuple(float(v) for v in values["velocity_limits"]),
         joint_ranges=ranges,
-        solver=solver,
-        kernel=kernel,
-        safety=_safety_config(values),
-        lead_moment=bool(values["lead_moment"]),
+        safety=SafetyConfig(**values_for(SafetyConfig, values)),
+        **values_for(ControllerConfig, values),
     )
