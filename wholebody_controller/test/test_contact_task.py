@@ -189,3 +189,46 @@ def test_user_reference_and_region() -> None:
     assert out.psi == 0.5
     # K_p pulls the frame towards the user reference.
     assert out.target[0:3] @ (np.array([1.0, 2.0, 3.0]) - POS) > 0
+
+
+def test_a_touch_too_light_to_activate_leaves_no_deflection() -> None:
+    """Algorithm 1, lines 7/10: while inactive x_d = x_r = x_γ, so x̃ = 0 by (14). A 0.05 N
+    touch drives ẋ̃ to F/D = 1.25 mm/s, ψ = tanh(b‖ẋ̃‖²/2) ≈ 3e-6 < ψ_thr: the task never
+    activates, and the deflection must not integrate (it would reach ≈ 1 mm in 1 s)."""
+    task = make_task()
+    for k in range(100):
+        out = step(task, contact(np.array([0.0, 0.0, 0.05]), k=k), ROT, POS, 0.0)
+        assert out.phase is Phase.INACTIVE
+        np.testing.assert_array_equal(out.deflection, 0.0)
+    assert np.linalg.norm(out.deflection_velocity) > 1e-3  # the admittance did move
+
+
+def test_a_sliding_contact_adds_its_rate_to_the_control_velocity_not_the_joint_target() -> None:
+    """(17), (20), (8): the contact centre sliding at ᶦṗ_η on the skin — the control velocity
+    carries ⁰R_d ᶦṗ_η, the QP target ⁰R_d ᶦṗ_η − ⁰R_i ᶦṗ_η (the joints need not move the centre
+    along the skin): control − target = ⁰R_i ᶦṗ_η."""
+    task = make_task(priority_lock=1.0)
+    rate = np.array([0.05, 0.0, 0.0])  # [m/s] along the link
+    for k in range(10):
+        out = step(task, contact(np.array([0.0, 0.0, -3.0]), CENTER + k * 0.01 * rate, k), ROT,
+                   POS, 0.0)
+    np.testing.assert_allclose(out.control_velocity[0:3] - out.target[0:3], ROT @ rate,
+                               atol=1e-12)
+
+
+def test_a_release_drops_the_desired_region_and_the_next_touch_locks_its_own() -> None:
+    """Ω_d belongs to one touch (Algorithm 1, line 14): after a release, a touch 10 cm further
+    along the link locks a region around itself — no track force from the old one."""
+    task = make_task(priority_lock=1.0)
+    f = np.array([0.0, 0.0, -4.0])
+    step(task, contact(f), ROT, POS, 0.0)
+    step(task, ContactState.no_contact(LINK, 1), ROT, POS, 0.0)
+    assert task.desired_region is None
+    moved = CENTER + np.array([0.1, 0.0, 0.0])
+    out = step(task, contact(f, moved, 2), ROT, POS, 0.0)
+    region = task.desired_region
+    assert region is not None
+    np.testing.assert_allclose(region[0], moved - HALF - 0.01)
+    np.testing.assert_array_equal(out.track_force, 0.0)
+    out = step(task, contact(f, moved, 3), ROT, POS, 0.0)
+    np.testing.assert_array_equal(out.track_force, 0.0)
