@@ -112,7 +112,8 @@ def test_wrong_length_is_refused_by_name(kin: KinematicsModel) -> None:
     spec = next(s for s in GLOBAL_PARAMS if s.name == "velocity_limits")
     with pytest.raises(ParameterValueError, match=r"'velocity_limits'.*15 elements"):
         spec.check(list(PER_AXIS[:14]))
-    with pytest.raises(ParameterValueError, match=r"'velocity_limits\[0\]'.* refused value 11\.0: above"):
+    with pytest.raises(ParameterValueError,
+                       match=r"'velocity_limits\[0\]'.* refused value 11\.0: above"):
         spec.check([11.0] * 15)
 
 
