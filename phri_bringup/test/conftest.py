@@ -1,12 +1,7 @@
 """Shared fixtures: isolated ROS domain per test process (see phri_common.testing)."""
 
-from phri_common.testing import (
-    isolate_ros_environment,
-    register_hypothesis_profiles,
-    ros_context,
-)
+from phri_common.testing import configure_test_process, ros_context
 
-isolate_ros_environment()
-register_hypothesis_profiles()
+configure_test_process()
 
 __all__ = ["ros_context"]

@@ -46,6 +46,13 @@ def register_hypothesis_profiles() -> None:
     settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 
+def configure_test_process() -> None:
+    """What every package's ``conftest.py`` does first: an isolated ROS domain and the suite's
+    hypothesis profiles."""
+    isolate_ros_environment()
+    register_hypothesis_profiles()
+
+
 def examples(factor: float) -> int:
     """``factor`` times the loaded profile's examples per test: for property tests that guard
     the controller and need more than the base number (or fewer, being slow), so that "deep"

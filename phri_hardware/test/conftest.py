@@ -6,15 +6,10 @@ from collections.abc import Iterator
 
 import pytest
 
-from phri_common.testing import (
-    isolate_ros_environment,
-    register_hypothesis_profiles,
-    ros_context,
-)
+from phri_common.testing import configure_test_process, ros_context
 from phri_hardware.fake_rtde import FakeRobotState, FakeRtdeServer
 
-isolate_ros_environment()
-register_hypothesis_profiles()
+configure_test_process()
 
 __all__ = ["ros_context"]
 

@@ -11,15 +11,10 @@ from pathlib import Path
 
 import pytest
 
-from phri_common.testing import (
-    isolate_ros_environment,
-    register_hypothesis_profiles,
-    ros_context,
-)
+from phri_common.testing import configure_test_process, ros_context
 
 sys.path.insert(0, str(Path(__file__).parent))
-isolate_ros_environment()
-register_hypothesis_profiles()
+configure_test_process()
 
 from wbc_fake_kinematics import FakeKinematics  # noqa: E402  (needs the path above)
 

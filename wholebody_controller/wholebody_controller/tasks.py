@@ -15,34 +15,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from phri_common.records import ContactState
+from wholebody_controller import task_rows as rows
 from wholebody_controller.admittance import transition
 from wholebody_controller.config import ControllerConfig, LinkTaskConfig, diag6
 from wholebody_controller.contact_task import TaskOutput
 from wholebody_controller.kernels import step_kernel
-from wholebody_controller.task_rows import (
-    N_OUT,
-    N_STATE,
-    P_LIMIT,
-    P_TRANSIENT,
-    S_BOX,
-    S_BOX_SET,
-    S_ELAPSED,
-    S_EXHAUSTED,
-    S_PEAK,
-    S_POINT,
-    S_PSI_PREV,
-    S_REF_POS,
-    S_REF_ROT,
-    S_REF_SET,
-    S_TRANSIENT,
-    S_TRAVEL,
-    S_V,
-    S_X,
-    S_YIELDING,
-    contact_rows,
-    link_params,
-    task_outputs,
-)
+from wholebody_controller.task_rows import contact_rows, link_params, task_outputs
 
 Array = NDArray[np.float64]
 
@@ -74,7 +52,7 @@ class ContactTask:
         self.params = link_params(link, self.controller_config) if params is None else params
         self.phi_gamma = (admittance_transition(link, self.controller_config)
                           if phi_gamma is None else phi_gamma)
-        self.state = np.zeros(N_STATE) if state is None else state
+        self.state = np.zeros(rows.N_STATE) if state is None else state
         self._kernel = step_kernel(self.controller_config.kernel)
 
     @property
@@ -91,9 +69,10 @@ class ContactTask:
             pos: ⁰p_γi, the link frame's origin in the world [m].
             yaw: base heading [rad].
         """
-        rows, touched = contact_rows((self.link,), {self.link: contact})
-        outputs = np.empty((1, N_OUT))
-        self._kernel.step_links(self.state[None], self.params[None], self.phi_gamma[None], rows,
+        contact_row, touched = contact_rows((self.link,), {self.link: contact})
+        outputs = np.empty((1, rows.N_OUT))
+        self._kernel.step_links(self.state[None], self.params[None], self.phi_gamma[None],
+                                contact_row,
                                 np.asarray(rot, dtype=np.float64).reshape(1, 9),
                                 np.asarray(pos, dtype=np.float64).reshape(1, 3), float(yaw),
                                 outputs)
@@ -107,65 +86,66 @@ class ContactTask:
     @property
     def deflection(self) -> Array:
         """x̃ (14) [m, rad]."""
-        return self.state[S_X : S_X + 6].copy()
+        return self.state[rows.S_X : rows.S_X + 6].copy()
 
     @property
     def deflection_velocity(self) -> Array:
         """ẋ̃ [m/s, rad/s]."""
-        return self.state[S_V : S_V + 6].copy()
+        return self.state[rows.S_V : rows.S_V + 6].copy()
 
     @property
     def point(self) -> Array:
         """ᶦp_η [m]: the contact centre of the last touch (the Jacobian point of (8))."""
-        return self.state[S_POINT : S_POINT + 3].copy()
+        return self.state[rows.S_POINT : rows.S_POINT + 3].copy()
 
     @property
     def psi_prev(self) -> float:
         """ψ of the previous step (Algorithm 1)."""
-        return float(self.state[S_PSI_PREV])
+        return float(self.state[rows.S_PSI_PREV])
 
     @property
     def locked_reference(self) -> tuple[Array, Array] | None:
         """The reference pose (⁰R_r 3×3, ⁰p_r [m]) of the link frame, while active."""
-        if not self.state[S_REF_SET]:
+        if not self.state[rows.S_REF_SET]:
             return None
-        return (self.state[S_REF_ROT : S_REF_ROT + 9].reshape(3, 3).copy(),
-                self.state[S_REF_POS : S_REF_POS + 3].copy())
+        return (self.state[rows.S_REF_ROT : rows.S_REF_ROT + 9].reshape(3, 3).copy(),
+                self.state[rows.S_REF_POS : rows.S_REF_POS + 3].copy())
 
     @property
     def desired_region(self) -> tuple[Array, Array] | None:
         """Ω_d (link frame, margin included) [m] while locked."""
-        if not self.state[S_BOX_SET]:
+        if not self.state[rows.S_BOX_SET]:
             return None
-        return self.state[S_BOX : S_BOX + 3].copy(), self.state[S_BOX + 3 : S_BOX + 6].copy()
+        box = self.state[rows.S_BOX : rows.S_BOX + 6]
+        return box[0:3].copy(), box[3:6].copy()
 
     @property
     def yielding(self) -> bool:
         """The contact force reached the force limit and has not fallen below r·F since."""
-        return bool(self.state[S_YIELDING])
+        return bool(self.state[rows.S_YIELDING])
 
     @property
     def peak_force(self) -> float:
         """Largest contact force since the last reset [N]."""
-        return float(self.state[S_PEAK])
+        return float(self.state[rows.S_PEAK])
 
     @property
     def transient_exceeded(self) -> bool:
         """The transient force limit was exceeded since the last reset."""
-        return bool(self.state[S_TRANSIENT])
+        return bool(self.state[rows.S_TRANSIENT])
 
     @property
     def force_limit(self) -> float:
         """Quasi-static force limit F [N]."""
-        return float(self.params[P_LIMIT])
+        return float(self.params[rows.P_LIMIT])
 
     @property
     def transient_force_limit(self) -> float:
         """Transient force limit [N]."""
-        return float(self.params[P_TRANSIENT])
+        return float(self.params[rows.P_TRANSIENT])
 
     @property
     def regain(self) -> tuple[float, float, bool]:
         """The regain budget: (travel [m], time [s] without contact, spent)."""
-        return (float(self.state[S_TRAVEL]), float(self.state[S_ELAPSED]),
-                bool(self.state[S_EXHAUSTED]))
+        return (float(self.state[rows.S_TRAVEL]), float(self.state[rows.S_ELAPSED]),
+                bool(self.state[rows.S_EXHAUSTED]))
