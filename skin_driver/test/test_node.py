@@ -301,8 +301,11 @@ def test_forged_header_costs_no_stall_and_every_frame_keeps_its_own_stamp(  # ty
     off_grid = np.abs(steps[50:] - np.round(steps[50:])) > 0.2
     assert np.count_nonzero(off_grid) <= max(1, len(off_grid) // 100), steps[50:][off_grid]
     gaps = int(np.sum(np.round(steps) - 1))
-    # No stall: waiting for the forged 32 KB would have held ≈ 0.7 s of frames back.
-    assert np.max(np.diff(listener.times)) < 0.25
+    # No stall: the forged length was dropped by the look-ahead (false_lengths above), never
+    # waited out (32 KB, ≈ 0.7 s of frames held back, then a frame CRC error). That each frame
+    # is returned by the read that completes it is test_protocol's (no wall clock here: a
+    # loaded machine's pauses are not the parser's).
+    assert port.crc_errors == 0
     # dropped counts sequence gaps of this board's accepted frames only: the rogue frames
     # (random sequence numbers, wrong size) are size mismatches, not drops.
     assert boards[0].size_mismatches >= 5
