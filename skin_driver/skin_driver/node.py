@@ -241,16 +241,28 @@ class _Channel:
                          None if self.layout.weights is None
                          else _read_only(self.layout.weights))
 
+    @classmethod
+    def for_layout(cls, board_id: int, layout: SkinLayout, config: CalibrationConfig,
+                   publisher: Publisher) -> _Channel:
+        """The channel of ``board_id``: its layout's calibrator and encoder."""
+        return cls(board_id, layout, _calibrator(layout, config), _encoder(layout), publisher)
+
     def set_layout(self, layout: SkinLayout, config: CalibrationConfig) -> None:
         """Take a reloaded layout: its geometry, a new calibrator (which tares again) and
         encoder; the counters and the publisher stay."""
         self.layout = layout
-        self.calibrator = PatchCalibrator(layout.size, config, layout.gains, layout.offsets,
-                                          layout.dead)
-        self.encoder = TaxelCloudEncoder(layout.positions, layout.normals, layout.link,
-                                         layout.weights)
+        self.calibrator = _calibrator(layout, config)
+        self.encoder = _encoder(layout)
         self.mismatch_logged = False
         self._read_geometry()
+
+
+def _calibrator(layout: SkinLayout, config: CalibrationConfig) -> PatchCalibrator:
+    return PatchCalibrator(layout.size, config, layout.gains, layout.offsets, layout.dead)
+
+
+def _encoder(layout: SkinLayout) -> TaxelCloudEncoder:
+    return TaxelCloudEncoder(layout.positions, layout.normals, layout.link, layout.weights)
 
 
 def _read_only(array: FloatArray) -> FloatArray:
@@ -297,21 +309,11 @@ class SkinDriverNode(Node):
         )
         self._lock = threading.Lock()
         self._config = config
-        self._channels: dict[int, _Channel] = {}
-        for board, layout in layouts.items():
-            self._channels[board] = _Channel(
-                board_id=board,
-                layout=layout,
-                calibrator=PatchCalibrator(
-                    layout.size, config, layout.gains, layout.offsets, layout.dead
-                ),
-                encoder=TaxelCloudEncoder(
-                    layout.positions, layout.normals, layout.link, layout.weights
-                ),
-                publisher=self.create_publisher(
-                    PointCloud2, f"skin/{layout.patch}/taxels", qos
-                ),
-            )
+        self._channels = {
+            board: _Channel.for_layout(board, layout, config, self.create_publisher(
+                PointCloud2, f"skin/{layout.patch}/taxels", qos))
+            for board, layout in layouts.items()
+        }
         self._listeners, self._publish_period = [], _period_s(float(v["taxel_publish_rate_hz"]))
         self._url = str(v["port"])
         self._parser = FrameParser(int(v["max_taxels"]))
