@@ -34,6 +34,11 @@ Bad input handling (documented in docs/contact_estimation.md), checked on every 
 * negative forces within the range (noise below the tare) are below any threshold σ_t ≥ 0:
   never in contact;
 * arrays of mismatched size → :class:`InvalidTaxelData`;
+* a frame whose geometry differs from the patch's (another taxel count or weighting, always
+  checked; other positions, normals or weights, checked when ``check_geometry``) →
+  :class:`GeometryMismatch`: a patch's geometry is learnt from its first frame (or given by
+  :meth:`ContactEstimator.set_geometry`) and changes only when announced
+  (:meth:`ContactEstimator.forget_geometry`), never from one odd frame;
 * a patch the estimator was not configured with → :class:`UnknownPatchError`.
 
 The checks are cheap enough for every frame (:func:`check_forces`,
@@ -74,6 +79,23 @@ the default) or in numpy (the reference, :meth:`ContactEstimator._link_sums_nump
 
 class InvalidTaxelData(ValueError):
     """A patch frame holds NaN/Inf values or arrays of inconsistent size; it was refused."""
+
+
+class GeometryMismatch(InvalidTaxelData):
+    """A frame's geometry differs from its patch's (learnt or set); it was refused.
+
+    Attributes:
+        patch: the patch.
+        expected: the patch's taxel count.
+        received: the frame's taxel count.
+    """
+
+    def __init__(self, patch: str, expected: int, received: int, what: str) -> None:
+        super().__init__(
+            f"patch {patch!r}: {what}: refused (a patch's geometry changes only when "
+            "announced: forget_geometry, the node's ~/reset_geometry)"
+        )
+        self.patch, self.expected, self.received = patch, expected, received
 
 
 class UnknownPatchError(KeyError):
@@ -294,8 +316,10 @@ class StuckDetector:
 class ContactEstimator:
     """Per-link contact estimation over a fixed set of skin patches.
 
-    Each patch's geometry is taken from its first frame (and re-taken whenever it changes);
-    :meth:`update` folds in one patch frame, :meth:`estimate` returns every link's state.
+    Each patch's geometry is taken from its first frame (or given by :meth:`set_geometry`);
+    a later frame with another geometry is refused (:class:`GeometryMismatch`) until
+    :meth:`forget_geometry` announces a new one. :meth:`update` folds in one patch frame,
+    :meth:`estimate` returns every link's state.
 
     Args:
         patch_links: patch name → link frame name (several patches may share a link).
@@ -413,6 +437,27 @@ class ContactEstimator:
         )
         self._build()
 
+    def forget_geometry(self, patch: str | None = None) -> None:
+        """Announce a new geometry of ``patch`` (of every patch if None): the patch's geometry
+        and forces are dropped, and its next frame sets its geometry, whatever its size.
+
+        Raises:
+            UnknownPatchError: ``patch`` is not configured.
+        """
+        patches = list(self.patch_links) if patch is None else [patch]
+        for name in patches:
+            self._patch_link(name)
+        for name in patches:
+            self._geometry.pop(name, None)
+            self._taken.pop(name, None)
+        self._build()
+
+    def taxel_count(self, patch: str) -> int | None:
+        """The taxel count of ``patch``'s geometry, None while it has none."""
+        self._patch_link(patch)
+        known = self._geometry.get(patch)
+        return None if known is None else int(known[0].shape[0])
+
     def _patch_link(self, patch: str) -> str:
         link = self.patch_links.get(patch)
         if link is None:
@@ -468,9 +513,11 @@ class ContactEstimator:
     ) -> ContactState:
         """Fold in one frame of ``patch`` and return its link's contact state.
 
-        ``check_geometry=False`` skips comparing the frame's positions/normals/weights with the
-        known geometry (two array comparisons, ~25 µs for 2,000 taxels); a first frame or a
-        change in taxel count is always taken as new geometry. The refusals (NaN/Inf anywhere,
+        The patch's first frame (after construction or :meth:`forget_geometry`) sets its
+        geometry; a later frame with another taxel count or weighting is refused
+        (:class:`GeometryMismatch`), and so is one with other positions, normals or weights
+        unless ``check_geometry=False``, which skips that comparison (two array comparisons,
+        ~25 µs for 2,000 taxels). The refusals (NaN/Inf anywhere,
         forces beyond ``max_taxel_force``, an empty cloud) apply to every frame either way,
         except that geometry arrays that are the very objects of the patch's last taken frame
         (read-only, so unchanged) are not checked again (:meth:`_take_geometry`).
@@ -550,21 +597,38 @@ class ContactEstimator:
         return self._states(i, i + 1)[link]
 
     def _take_geometry(self, patch: str, taxels: TaxelArray, check_geometry: bool) -> None:
-        """Check a frame's geometry values and take them as the patch's geometry if new (or
-        if its size changed); remember the frame's (read-only) array objects, so a frame
-        handing over the very same objects (a composed skin driver passes its layout's
-        arrays every frame) skips these checks: a TaxelArray's arrays cannot be written."""
+        """Check a frame's geometry values, take them as the patch's geometry if it has none,
+        else check they are the patch's (:class:`GeometryMismatch`); remember the frame's
+        (read-only) array objects, so a frame handing over the very same objects (a composed
+        skin driver passes its layout's arrays every frame) skips these checks: a
+        TaxelArray's arrays cannot be written."""
         if not (self._numba and taxels.weights is None
                 and math.isfinite(fused.geometry_total(taxels.positions, taxels.normals))):
             check_geometry_values(taxels.positions, taxels.normals, taxels.weights)
         known = self._geometry.get(patch)
-        if (
-            known is None
-            or known[0].shape != taxels.positions.shape
-            or (check_geometry and self._geometry_changed(known, taxels))
-        ):
+        if known is None:
             self.set_geometry(patch, taxels.positions, taxels.normals, taxels.weights)
+        else:
+            self._check_same_geometry(patch, known, taxels, check_geometry)
         self._taken[patch] = (taxels.positions, taxels.normals, taxels.weights)
+
+    def _check_same_geometry(self, patch: str,
+                             known: tuple[FloatArray, FloatArray, FloatArray | None],
+                             taxels: TaxelArray, compare: bool) -> None:
+        """Raise :class:`GeometryMismatch` unless ``taxels`` has the patch's geometry: the
+        same taxel count and weighting always, the same values when ``compare``."""
+        expected, received = known[0].shape[0], taxels.positions.shape[0]
+        if received != expected:
+            raise GeometryMismatch(patch, expected, received, f"a frame of {received} taxels, "
+                                   f"the patch's geometry has {expected}")
+        if (known[2] is None) != (taxels.weights is None):
+            frame, has = ("with", "without") if known[2] is None else ("without", "with")
+            raise GeometryMismatch(patch, expected, received, f"a frame {frame} weights, the "
+                                   f"patch's geometry is {has} weights")
+        if compare and self._geometry_changed(known, taxels):
+            raise GeometryMismatch(patch, expected, received, f"a frame of {received} taxels "
+                                   "whose positions, normals or weights differ from the "
+                                   "patch's geometry")
 
     @staticmethod
     def _geometry_changed(

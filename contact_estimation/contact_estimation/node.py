@@ -9,11 +9,16 @@ Thin wrapper around :class:`contact_estimation.estimator.ContactEstimator`. Inte
   every accepted frame of one of the link's patches;
 * publishes ``contacts/markers`` (visualization_msgs/MarkerArray) when ``publish_markers``,
   per link at most ``marker_rate_hz`` (on state time) and whenever contact starts or ends;
-* publishes ``/diagnostics`` (diagnostic_msgs/DiagnosticArray) every ``diagnostics_period``.
+* publishes ``/diagnostics`` (diagnostic_msgs/DiagnosticArray) every ``diagnostics_period``;
+* serves ``~/reset_geometry`` (std_srvs/Trigger): every patch forgets its geometry, and its next
+  frame sets it (the announcement of a new layout).
 
 A refused frame (malformed message, NaN/Inf anywhere, a force beyond ``max_taxel_force``, an
 empty cloud, wrong frame_id, wrong size, a stuck skin repeating its loaded frame for longer than
-``stuck_timeout``; checked on every frame) is counted, reported on
+``stuck_timeout``; checked on every frame; a geometry other than the patch's: another taxel count
+or weighting on every frame, other positions or normals every ``geometry_check_interval``-th
+frame; a patch learns its geometry from its first frame and changes it only after
+``~/reset_geometry``) is counted, reported on
 diagnostics and logged (throttled); no contact state is published for it, the node stays up and
 keeps serving every other patch. Downstream treats the missing state as stale.
 """
@@ -32,6 +37,7 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import PointCloud2
+from std_srvs.srv import Trigger
 from visualization_msgs.msg import MarkerArray
 
 from contact_estimation.estimator import (
@@ -41,6 +47,7 @@ from contact_estimation.estimator import (
     PAPER_TORQUE_LIMIT,
     ContactEstimator,
     EstimatorConfig,
+    GeometryMismatch,
     InvalidTaxelData,
 )
 from contact_estimation.markers import MarkerScales, MarkerThrottle, contact_markers
@@ -88,9 +95,9 @@ PARAMS: list[ParamSpec] = [
     ParamSpec("marker_torque_scale", 0.1, "torque arrow length per N·m", unit="m/(N·m)",
               low=0.0, high=10.0),
     ParamSpec("geometry_check_interval", 50, "compare a patch's taxel positions/normals with "
-              "the known layout every N-th frame (a changed taxel count is always caught; "
-              "NaN/Inf values are refused on every frame); 1 = every frame", unit="frames",
-              low=1, high=1_000_000),
+              "its geometry every N-th frame and refuse a frame that differs (another taxel "
+              "count is refused on every frame, and so are NaN/Inf values); 1 = every frame",
+              unit="frames", low=1, high=1_000_000),
     ParamSpec("diagnostics_period", 1.0, "period of the /diagnostics report", unit="s",
               low=0.05, high=3600.0),
 ]
@@ -158,6 +165,8 @@ class ContactEstimationNode(Node):
         self._received = dict.fromkeys(patches, 0)
         self._refused = dict.fromkeys(patches, 0)
         self._last_error: dict[str, str] = dict.fromkeys(patches, "")
+        self._mismatches = dict.fromkeys(patches, 0)
+        self._mismatch_taxels = dict.fromkeys(patches, 0)  # size of the last refused geometry
         self._state_pubs = {
             link: self.create_publisher(PointCloud2, f"contacts/{link}", STATE_QOS)
             for link in self._estimator.links
@@ -176,6 +185,7 @@ class ContactEstimationNode(Node):
         ]
         period = float(self._values["diagnostics_period"])
         self._diag_timer = self.create_timer(period, self._publish_diagnostics)
+        self._reset_srv = self.create_service(Trigger, "~/reset_geometry", self._on_reset_geometry)
         self.get_logger().info(
             f"estimating contacts of {len(self._estimator.links)} link(s) from "
             f"{len(patches)} patch(es): {self._patch_links}"
@@ -264,35 +274,52 @@ class ContactEstimationNode(Node):
         if self._publish_markers and self._marker_throttle.due(state):
             self._marker_pub.publish(MarkerArray(markers=contact_markers(state, self._scales)))
 
+    def _on_reset_geometry(self, request: Trigger.Request,
+                           response: Trigger.Response) -> Trigger.Response:
+        """``~/reset_geometry``: every patch forgets its geometry; its next frame sets it."""
+        with self._lock:
+            self._estimator.forget_geometry()
+        response.success = True
+        response.message = (f"geometry of {len(self._patch_links)} patch(es) forgotten: each "
+                            "patch's next frame sets it")
+        self.get_logger().info(f"~/reset_geometry: {response.message}")
+        return response
+
     def _refuse(self, patch: str, err: Exception) -> None:
         self._refused[patch] += 1
         self._last_error[patch] = str(err)
+        if isinstance(err, GeometryMismatch):
+            self._mismatches[patch] += 1
+            self._mismatch_taxels[patch] = err.received
         self.get_logger().warning(
             f"refused a frame of patch {patch!r}: {err}", throttle_duration_sec=1.0
         )
 
+    def patch_status(self, patch: str) -> DiagnosticStatus:
+        """The diagnostic status of ``patch``: frames received and refused, the refusals for
+        another geometry with both sizes, the last error."""
+        with self._lock:
+            refused, received = self._refused[patch], self._received[patch]
+            mismatches, wrong = self._mismatches[patch], self._mismatch_taxels[patch]
+            taxels = self._estimator.taxel_count(patch)
+            last_error = self._last_error[patch]
+        level = DiagnosticStatus.OK if refused == 0 and received else DiagnosticStatus.WARN
+        message = "no frames yet" if received == 0 else (
+            "ok" if refused == 0 else f"{refused} frame(s) refused")
+        if mismatches:
+            message += (f", {mismatches} of another geometry ({wrong} taxels, the patch has "
+                        f"{taxels})")
+        values = {"frames_received": received, "frames_refused": refused,
+                  "taxels": "-" if taxels is None else taxels,
+                  "geometry_mismatches": mismatches, "mismatch_taxels": wrong,
+                  "last_error": last_error}
+        return DiagnosticStatus(
+            level=level, name=f"contact_estimation: {patch}",
+            hardware_id=self._patch_links[patch], message=message,
+            values=[KeyValue(key=k, value=str(v)) for k, v in values.items()])
+
     def _publish_diagnostics(self) -> None:
-        statuses = []
-        for patch, link in self._patch_links.items():
-            refused = self._refused[patch]
-            level = DiagnosticStatus.OK if refused == 0 else DiagnosticStatus.WARN
-            if self._received[patch] == 0:
-                level = DiagnosticStatus.WARN
-            statuses.append(
-                DiagnosticStatus(
-                    level=level,
-                    name=f"contact_estimation: {patch}",
-                    hardware_id=link,
-                    message="no frames yet" if self._received[patch] == 0 else (
-                        "ok" if refused == 0 else f"{refused} frame(s) refused"
-                    ),
-                    values=[
-                        KeyValue(key="frames_received", value=str(self._received[patch])),
-                        KeyValue(key="frames_refused", value=str(refused)),
-                        KeyValue(key="last_error", value=self._last_error[patch]),
-                    ],
-                )
-            )
+        statuses = [self.patch_status(patch) for patch in self._patch_links]
         msg = DiagnosticArray(status=statuses)
         msg.header.stamp = self.get_clock().now().to_msg()
         self._diag_pub.publish(msg)

@@ -14,6 +14,7 @@ from hypothesis.extra.numpy import arrays
 from contact_estimation.estimator import (
     ContactEstimator,
     EstimatorConfig,
+    GeometryMismatch,
     InvalidTaxelData,
     UnknownPatchError,
     estimate_contact,
@@ -272,12 +273,40 @@ def test_zero_weight_contact_is_not_a_contact() -> None:
     assert not state.in_contact
 
 
-def test_changed_geometry_is_picked_up() -> None:
+def test_changed_geometry_is_refused_until_announced() -> None:
     positions, normals = flat_grid()
+    moved = positions + np.array([1.0, 0.0, 0.0])
     est = ContactEstimator({"p": "l"})
     first = est.update("p", taxels(positions, normals, np.ones(60)))
-    second = est.update("p", taxels(positions + np.array([1.0, 0.0, 0.0]), normals, np.ones(60)))
+    with pytest.raises(GeometryMismatch, match="positions, normals or weights differ"):
+        est.update("p", taxels(moved, normals, np.ones(60)))
+    np.testing.assert_allclose(est.link_state("l").center, first.center)  # nothing stored
+    est.forget_geometry("p")  # the announcement: the next frame sets the geometry
+    second = est.update("p", taxels(moved, normals, np.ones(60)))
     np.testing.assert_allclose(second.center, first.center + np.array([1.0, 0.0, 0.0]))
+
+
+@pytest.mark.parametrize("kernel", ["numba", "numpy"])
+def test_a_frame_of_another_size_is_refused_and_the_next_good_one_used(kernel: str) -> None:
+    positions, normals = flat_grid()
+    est = ContactEstimator({"p": "l"}, EstimatorConfig(kernel=kernel))
+    est.update("p", taxels(positions, normals, np.full(60, 0.01)))  # no contact
+    assert est.taxel_count("p") == 60
+    with pytest.raises(GeometryMismatch, match="a frame of 30 taxels, the patch's geometry "
+                                               "has 60") as refused:
+        est.update("p", taxels(positions[:30], normals[:30], np.ones(30)),
+                   check_geometry=False)
+    assert (refused.value.patch, refused.value.expected, refused.value.received) == ("p", 60, 30)
+    assert est.taxel_count("p") == 60 and not est.link_state("l").in_contact
+    with pytest.raises(GeometryMismatch, match="with weights"):
+        est.update("p", taxels(positions, normals, np.ones(60), weights=np.ones(60)))
+    good = est.update("p", taxels(positions, normals, np.ones(60)), check_geometry=False)
+    assert good.taxel_count == 60
+    est.forget_geometry()  # every patch: a new size is then taken from the next frame
+    assert est.taxel_count("p") is None
+    assert est.update("p", taxels(positions[:30], normals[:30], np.ones(30))).taxel_count == 30
+    with pytest.raises(UnknownPatchError):
+        est.forget_geometry("nowhere")
 
 
 def test_frames_reusing_the_same_geometry_objects_keep_it_and_still_check_forces() -> None:
@@ -292,9 +321,13 @@ def test_frames_reusing_the_same_geometry_objects_keep_it_and_still_check_forces
             est.update("p", TaxelArray(frame.positions, frame.normals, np.full(60, bad), None,
                                        "link", 1))
     est.set_geometry("p", positions + np.array([1.0, 0.0, 0.0]), normals)
+    with pytest.raises(GeometryMismatch):  # the same objects, checked again: not the set ones
+        est.update("p", TaxelArray(frame.positions, frame.normals, np.ones(60), None,
+                                   "link", 2))
+    est.set_geometry("p", positions, normals)
     again = est.update("p", TaxelArray(frame.positions, frame.normals, np.ones(60), None,
-                                       "link", 2))
-    np.testing.assert_allclose(again.center, first.center)  # the frame's geometry, not the set
+                                       "link", 3))
+    np.testing.assert_allclose(again.center, first.center)
 
 
 def test_batched_estimate_matches_one_link_at_a_time() -> None:
@@ -326,10 +359,10 @@ def test_geometry_check_can_be_skipped_but_a_new_taxel_count_is_always_caught() 
     moved = positions + np.array([1.0, 0.0, 0.0])
     skipped = est.update("p", taxels(moved, normals, np.ones(60)), check_geometry=False)
     np.testing.assert_allclose(skipped.center, first.center)  # not compared: old layout kept
-    checked = est.update("p", taxels(moved, normals, np.ones(60)), check_geometry=True)
-    np.testing.assert_allclose(checked.center, first.center + np.array([1.0, 0.0, 0.0]))
-    fewer = est.update("p", taxels(moved[:30], normals[:30], np.ones(30)), check_geometry=False)
-    assert fewer.taxel_count == 30
+    with pytest.raises(GeometryMismatch):
+        est.update("p", taxels(moved, normals, np.ones(60)), check_geometry=True)
+    with pytest.raises(GeometryMismatch, match="30 taxels"):
+        est.update("p", taxels(moved[:30], normals[:30], np.ones(30)), check_geometry=False)
 
 
 # --- refusals on every frame (issue 11, deliverable 4) -------------------------------------

@@ -179,3 +179,40 @@ def test_markers_are_throttled_to_marker_rate_hz(harness) -> None:
     pubs["fore"].publish(encoder.encode(np.zeros(3), 1_000_000_000 + 100 * 2_000_000))
     assert spin_until(executor, lambda: len(markers) == drawn + 1, timeout_s=5.0)
     assert all(m.action == m.DELETE for m in markers[-1].markers)
+
+
+def test_a_frame_of_another_geometry_is_refused_until_reset_geometry(harness) -> None:
+    """A patch's geometry is learnt from its first frame; a frame of another size is refused,
+    counted and reported with both sizes, the next good frame is used; ~/reset_geometry (a
+    real service call) announces a new geometry."""
+    from std_srvs.srv import Trigger
+
+    node, pubs, received, _, executor = harness
+    good = TaxelCloudEncoder(POSITIONS, NORMALS, "forearm_link")
+    four = np.vstack([POSITIONS, [[0.0, 0.0, -0.05]]]), np.vstack([NORMALS, [[0.0, 0.0, -1.0]]])
+    bigger = TaxelCloudEncoder(*four, "forearm_link")
+    pubs["fore"].publish(good.encode(FORCES, 1))
+    assert spin_until(executor, lambda: len(received["forearm_link"]) == 1, timeout_s=10.0)
+    pubs["fore"].publish(bigger.encode(np.append(FORCES, 5.0), 2))
+    assert spin_until(executor, lambda: node.refused_frames["fore"] == 1, timeout_s=10.0)
+    pubs["fore"].publish(good.encode(FORCES, 3))
+    assert spin_until(executor, lambda: len(received["forearm_link"]) == 2, timeout_s=10.0)
+    assert received["forearm_link"][-1].taxel_count == 2  # the learnt geometry, 3 taxels
+    status = node.patch_status("fore")
+    values = {kv.key: kv.value for kv in status.values}
+    assert "1 of another geometry (4 taxels, the patch has 3)" in status.message
+    assert (values["geometry_mismatches"], values["mismatch_taxels"], values["taxels"]) == (
+        "1", "4", "3")
+    caller = node.__class__.__mro__[1]("reset_caller", context=node.context)
+    executor.add_node(caller)
+    client = caller.create_client(Trigger, "/contact_estimation/reset_geometry")
+    assert spin_until(executor, client.service_is_ready, timeout_s=10.0)
+    future = client.call_async(Trigger.Request())
+    assert spin_until(executor, future.done, timeout_s=10.0)
+    assert future.result().success
+    executor.remove_node(caller)
+    caller.destroy_node()
+    pubs["fore"].publish(bigger.encode(np.append(FORCES, 5.0), 4))
+    assert spin_until(executor, lambda: len(received["forearm_link"]) == 3, timeout_s=10.0)
+    assert received["forearm_link"][-1].taxel_count == 3  # now 4 taxels, 3 in contact
+    assert node.refused_frames["fore"] == 1

@@ -62,6 +62,8 @@ class BoardSnapshot:
     silent: bool
     last_frame_age_s: float
     calibration: CalibrationStatus
+    wrong_size_taxels: int = 0
+    """Taxel count of the last frame refused for not matching the layout (0: none)."""
 
 
 def _kv(key: str, value: object) -> KeyValue:
@@ -117,7 +119,8 @@ def board_status(b: BoardSnapshot, url: str) -> DiagnosticStatus:
         level = DiagnosticStatus.WARN
         message = f"{b.new_drops} frames dropped"
         if b.new_size_mismatches:
-            message += f", {b.new_size_mismatches} frames of the wrong size"
+            message += (f", {b.new_size_mismatches} frames of the wrong size refused "
+                        f"({b.wrong_size_taxels} taxels, the layout has {b.taxels})")
     elif cal.dead or cal.saturated:
         level = DiagnosticStatus.WARN
         message = f"{cal.dead} taxels masked, {cal.saturated} saturated"
@@ -134,6 +137,7 @@ def board_status(b: BoardSnapshot, url: str) -> DiagnosticStatus:
         _kv("dropped", b.dropped),
         _kv("sequence_restarts", b.restarts),
         _kv("size_mismatches", b.size_mismatches),
+        _kv("wrong_size_taxels", b.wrong_size_taxels),
         _kv("clock_restarts", b.clock_restarts),
         _kv("last_frame_age_s", b.last_frame_age_s),
         _kv("tared", cal.tared),

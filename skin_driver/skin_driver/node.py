@@ -12,7 +12,10 @@ Topics: ``skin/<patch>/taxels`` (``sensor_msgs/PointCloud2``, frame = the patch'
 the board's sampling time ``board_time_us`` mapped to the node clock by
 :class:`~skin_driver.board_clock.BoardClock`, one per board), ``/diagnostics``
 (``diagnostic_msgs/DiagnosticArray``).
-Service: ``~/tare`` (``std_srvs/Trigger``). Interface: ``docs/skin_driver.md``.
+Services: ``~/tare`` and ``~/reload_layouts`` (``std_srvs/Trigger``). A frame whose taxel
+count differs from its patch's layout is refused (counted, reported with both sizes on
+diagnostics), never published: a patch's geometry changes only when its layout file is reloaded
+(``~/reload_layouts``). Interface: ``docs/skin_driver.md``.
 """
 
 from __future__ import annotations
@@ -20,11 +23,13 @@ from __future__ import annotations
 import sys
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
+from numpy.typing import NDArray
 from rclpy.context import Context
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -166,6 +171,40 @@ def load_patches(board_ids: Sequence[int], files: Sequence[str]) -> dict[int, Sk
     return patches
 
 
+def reload_patches(
+    current: Mapping[int, SkinLayout], board_ids: Sequence[int], files: Sequence[str]
+) -> dict[int, SkinLayout]:
+    """The layouts of ``files`` read again for a reload (pure but for reading the files): as
+    :func:`load_patches`, and each board keeps its patch name and link (its topic and frame).
+
+    Raises:
+        ParameterValueError: a file does not load, or a board's patch name or link changed
+            (names the board, both names and the file).
+    """
+    layouts = load_patches(board_ids, files)
+    for (board, new), path in zip(layouts.items(), files, strict=True):
+        old = current[board]
+        if (new.patch, new.link) != (old.patch, old.link):
+            raise ParameterValueError(
+                f"parameter 'layout_files' refused reloading {path!r}: board {board} is patch "
+                f"{old.patch!r} on link {old.link!r}, the file names patch {new.patch!r} on link "
+                f"{new.link!r} (a reload keeps each board's patch and link; restart the node to "
+                "change them)"
+            )
+    return layouts
+
+
+def same_layout(a: SkinLayout, b: SkinLayout) -> bool:
+    """Do two layouts hold the same geometry and calibration (bit for bit)?"""
+    def same(x: NDArray[Any] | None, y: NDArray[Any] | None) -> bool:
+        return (x is None and y is None) or (
+            x is not None and y is not None and np.array_equal(x, y))
+
+    return bool(a.patch == b.patch and a.link == b.link and all(
+        same(getattr(a, f), getattr(b, f))
+        for f in ("positions", "normals", "weights", "gains", "offsets", "dead")))
+
+
 @dataclass
 class _Channel:
     """One board: its patch, calibrator, encoder, publisher and counters."""
@@ -178,6 +217,9 @@ class _Channel:
     frames: int = 0
     published: int = 0
     size_mismatches: int = 0
+    wrong_size: int = 0
+    """Taxel count of the last frame refused for its size (0: none yet)."""
+    mismatch_logged: bool = False
     last_frame_mono: float = 0.0
     silent: bool = True
     frames_at_last_diag: int = 0
@@ -192,9 +234,35 @@ class _Channel:
     from them (and from read-only forces) copies nothing (phri_common.records.frozen)."""
 
     def __post_init__(self) -> None:
+        self._read_geometry()
+
+    def _read_geometry(self) -> None:
         self.geometry = (_read_only(self.layout.positions), _read_only(self.layout.normals),
                          None if self.layout.weights is None
                          else _read_only(self.layout.weights))
+
+    @classmethod
+    def for_layout(cls, board_id: int, layout: SkinLayout, config: CalibrationConfig,
+                   publisher: Publisher) -> _Channel:
+        """The channel of ``board_id``: its layout's calibrator and encoder."""
+        return cls(board_id, layout, _calibrator(layout, config), _encoder(layout), publisher)
+
+    def set_layout(self, layout: SkinLayout, config: CalibrationConfig) -> None:
+        """Take a reloaded layout: its geometry, a new calibrator (which tares again) and
+        encoder; the counters and the publisher stay."""
+        self.layout = layout
+        self.calibrator = _calibrator(layout, config)
+        self.encoder = _encoder(layout)
+        self.mismatch_logged = False
+        self._read_geometry()
+
+
+def _calibrator(layout: SkinLayout, config: CalibrationConfig) -> PatchCalibrator:
+    return PatchCalibrator(layout.size, config, layout.gains, layout.offsets, layout.dead)
+
+
+def _encoder(layout: SkinLayout) -> TaxelCloudEncoder:
+    return TaxelCloudEncoder(layout.positions, layout.normals, layout.link, layout.weights)
 
 
 def _read_only(array: FloatArray) -> FloatArray:
@@ -240,21 +308,12 @@ class SkinDriverNode(Node):
             reliability=ReliabilityPolicy.RELIABLE,
         )
         self._lock = threading.Lock()
-        self._channels: dict[int, _Channel] = {}
-        for board, layout in layouts.items():
-            self._channels[board] = _Channel(
-                board_id=board,
-                layout=layout,
-                calibrator=PatchCalibrator(
-                    layout.size, config, layout.gains, layout.offsets, layout.dead
-                ),
-                encoder=TaxelCloudEncoder(
-                    layout.positions, layout.normals, layout.link, layout.weights
-                ),
-                publisher=self.create_publisher(
-                    PointCloud2, f"skin/{layout.patch}/taxels", qos
-                ),
-            )
+        self._config = config
+        self._channels = {
+            board: _Channel.for_layout(board, layout, config, self.create_publisher(
+                PointCloud2, f"skin/{layout.patch}/taxels", qos))
+            for board, layout in layouts.items()
+        }
         self._listeners, self._publish_period = [], _period_s(float(v["taxel_publish_rate_hz"]))
         self._url = str(v["port"])
         self._parser = FrameParser(int(v["max_taxels"]))
@@ -267,6 +326,7 @@ class SkinDriverNode(Node):
         self._unframed_warned = False
         self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self._tare_srv = self.create_service(Trigger, "~/tare", self._on_tare)
+        self._reload_srv = self.create_service(Trigger, "~/reload_layouts", self._on_reload)
         self.create_timer(float(v["diagnostics_period"]), self.publish_diagnostics)
         silence = float(v["silence_timeout"])
         self._silence_timer = self.create_timer(max(silence / 2.0, 0.002), self._check_silence)
@@ -337,7 +397,7 @@ class SkinDriverNode(Node):
             self._unknown_board_frames += 1
             return
         if frame.counts.shape[0] != channel.layout.size:
-            channel.size_mismatches += 1
+            self._refuse_size(channel, frame.counts.shape[0])
             return
         channel.sequence.observe(frame.sequence)
         stamp_ns = channel.clock.stamp(frame.board_time_us, arrival_ns)
@@ -362,6 +422,20 @@ class SkinDriverNode(Node):
             channel.published += 1
             if self._publish_period > 0.0:
                 channel.next_publish_mono = mono + self._publish_period - 1e-6
+
+    def _refuse_size(self, channel: _Channel, taxels: int) -> None:
+        """Count a frame of ``taxels`` taxels on a board whose layout has another count: it is
+        not published (a geometry changes only by ``~/reload_layouts``). Logged once per
+        layout (the diagnostics carry the count and both sizes)."""
+        channel.size_mismatches += 1
+        channel.wrong_size = taxels
+        if not channel.mismatch_logged:
+            channel.mismatch_logged = True
+            self.get_logger().warning(
+                f"board {channel.board_id} ({channel.layout.patch}): refused a frame of "
+                f"{taxels} taxels, the layout has {channel.layout.size} (not published; to "
+                "change the geometry, update the layout file and call ~/reload_layouts)"
+            )
 
     # ----------------------------------------------------------------------- executor side
 
@@ -407,6 +481,34 @@ class SkinDriverNode(Node):
                 channel.calibrator.tare()
         response.success = True
         response.message = f"taring {len(self._channels)} patch(es)"
+        return response
+
+    def _on_reload(self, request: Trigger.Request,
+                   response: Trigger.Response) -> Trigger.Response:
+        """``~/reload_layouts``: read every layout file again; a board whose layout changed
+        takes the new geometry and calibration (and tares again). All or nothing: a file that
+        does not load, or that renames a board's patch or link, changes nothing."""
+        v = self._values
+        try:
+            with self._lock:
+                current = {b: c.layout for b, c in self._channels.items()}
+            layouts = reload_patches(current, [int(b) for b in v["board_ids"]],
+                                     [str(f) for f in v["layout_files"]])
+        except ParameterValueError as err:
+            response.success, response.message = False, str(err)
+            self.get_logger().error(f"~/reload_layouts refused: {err}")
+            return response
+        changed = []
+        with self._lock:
+            for board, layout in layouts.items():
+                channel = self._channels[board]
+                if not same_layout(layout, channel.layout):
+                    changed.append(f"{layout.patch}: {channel.layout.size} → {layout.size} "
+                                   "taxels, taring")
+                    channel.set_layout(layout, self._config)
+        response.success = True
+        response.message = "reloaded: " + ("; ".join(changed) if changed else "no change")
+        self.get_logger().info(f"~/reload_layouts {response.message}")
         return response
 
     def snapshot(self) -> tuple[PortSnapshot, list[BoardSnapshot]]:
@@ -455,6 +557,7 @@ class SkinDriverNode(Node):
                         restarts=c.sequence.restarts,
                         size_mismatches=c.size_mismatches,
                         new_size_mismatches=c.size_mismatches - c.mismatches_at_last_diag,
+                        wrong_size_taxels=c.wrong_size,
                         clock_restarts=c.clock.restarts,
                         silent=c.silent,
                         last_frame_age_s=(now - c.last_frame_mono) if c.frames else float("inf"),

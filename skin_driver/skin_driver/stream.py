@@ -47,6 +47,9 @@ class StreamCounters:
 
     sequence: BoardSequence = field(default_factory=BoardSequence)
     size_mismatches: int = 0
+    """Frames refused because their taxel count differs from the layout's."""
+    wrong_size: int = 0
+    """Taxel count of the last of them (0: none)."""
     taring: int = 0
     """Frames taken by the tare (no output)."""
 
@@ -90,6 +93,7 @@ class SkinStream:
             counters = self.counters[frame.board_id]
             if frame.counts.shape[0] != layout.size:
                 counters.size_mismatches += 1
+                counters.wrong_size = frame.counts.shape[0]
                 continue
             counters.sequence.observe(frame.sequence)
             forces = self.calibrators[frame.board_id].process(frame.counts, t)

@@ -250,3 +250,85 @@ def test_a_real_long_frame_arriving_in_pieces_is_not_abandoned() -> None:
     out = [f for k in range(0, len(data), 97) for f in parser.feed(data[k : k + 97])]
     assert len(out) == 1 and out[0].sequence == 7
     assert parser.stats.false_lengths == 0 and parser.stats.errors == 0
+
+
+# --- work linear in the bytes read (issue "Safe when following fails", deliverable 5) -------
+
+WORK_PER_BYTE = 8
+"""Bound on ``stats.checked_bytes`` / ``stats.bytes_in``: the running CRC passes each byte once,
+and each sync (≥ 2 bytes apart) costs one 14-byte header CRC."""
+
+
+def forged_burst(size: int, count: int = MAX_TAXELS) -> bytes:
+    """``size`` bytes of back-to-back headers with valid header CRCs, each announcing ``count``
+    taxels: every header starts inside the span of the ones before it, and no announced frame
+    is intact (its CRC field holds later headers)."""
+    return b"".join(_forged_header(count, seq=k) for k in range(size // HEADER_SIZE))
+
+
+def _feed_checking_work(parser: FrameParser, data: bytes, chunk: int) -> list:
+    """Feed ``data`` in chunks of ``chunk`` bytes, checking the work bound after every one."""
+    out = []
+    for k in range(0, len(data), chunk):
+        out += parser.feed(data[k : k + chunk])
+        s = parser.stats
+        assert s.checked_bytes <= WORK_PER_BYTE * s.bytes_in, (k, s.checked_bytes, s.bytes_in)
+        assert s.crc_combines <= s.bytes_in // 2
+    return out
+
+
+@pytest.mark.parametrize("chunk", [4096, 92, 1 << 20])
+def test_forged_headers_cost_work_linear_in_the_bytes(chunk: int) -> None:
+    burst = forged_burst(1 << 20)
+    real = [encode_frame(4, s, np.full(36, 1000 + s)) for s in range(3)]
+    parser = FrameParser()
+    assert _feed_checking_work(parser, burst, chunk) == []
+    s = parser.stats
+    # Every header whose announced frame is in was checked, once, and refused.
+    spanned = (len(burst) - frame_size(MAX_TAXELS)) // HEADER_SIZE + 1
+    assert s.frame_crc_errors == spanned and s.crc_combines == spanned
+    assert parser.buffered < parser.max_frame_size
+    # The next good frames are used: the headers still waiting are false lengths, and every
+    # sync of the burst (a header's, or one its fields happen to spell) was refused once.
+    out = _feed_checking_work(parser, b"".join(real), chunk)
+    assert [f.sequence for f in out] == [0, 1, 2]
+    assert s.false_lengths > 0 and s.errors == burst.count(SYNC)
+    assert s.discarded_bytes == len(burst) and parser.buffered == 0
+
+
+def test_a_clean_stream_checks_each_byte_once() -> None:
+    data = b"".join(encode_frame(1, s, np.arange(2000) + s) for s in range(50))
+    parser = FrameParser()
+    out = _feed_checking_work(parser, data, 4096)
+    assert [f.sequence for f in out] == list(range(50))
+    # Each frame: its 14 header bytes by the CRC-16, then every byte up to its CRC field once.
+    assert parser.stats.checked_bytes == 50 * (14 + frame_size(2000) - 4)
+
+
+@SETTINGS
+@given(data=st.binary(max_size=3000), salt=st.integers(0, 400),
+       cuts=st.lists(st.integers(0, 5000), max_size=20))
+def test_work_stays_linear_on_any_stream(data: bytes, salt: int, cuts: list[int]) -> None:
+    # Random bytes, syncs and valid headers of small frames, all overlapping.
+    rng = np.random.default_rng(len(data) + salt)
+    stream = bytearray(data)
+    for _ in range(salt):
+        at = int(rng.integers(0, len(stream) + 1))
+        piece = (SYNC if rng.random() < 0.5
+                 else _forged_header(int(rng.integers(1, MAX_T + 1)), seq=int(rng.integers(99))))
+        stream[at:at] = piece
+    parser = FrameParser(MAX_T)
+    for chunk in _chunks(bytes(stream), cuts):
+        parser.feed(chunk)
+        s = parser.stats
+        assert s.checked_bytes <= WORK_PER_BYTE * s.bytes_in
+        assert parser.buffered < parser.max_frame_size + len(chunk)
+
+
+def test_crc_of_a_span_from_running_crcs_matches_zlib() -> None:
+    from skin_driver.protocol import crc32_of_span
+
+    data = np.random.default_rng(0).integers(0, 256, 5000, dtype=np.uint8).tobytes()
+    for s, e in [(0, 5000), (10, 4000), (123, 124), (7, 7), (0, 0), (4999, 5000)]:
+        assert crc32_of_span(zlib.crc32(data[:s]), zlib.crc32(data[:e]), e - s) == zlib.crc32(
+            data[s:e])

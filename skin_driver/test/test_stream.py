@@ -58,7 +58,12 @@ def test_wrong_size_and_unknown_boards_are_counted_not_calibrated() -> None:
     data = encode_frame(3, 0, np.full(A.size + 1, 1000)) + encode_frame(9, 0, np.full(4, 1000))
     assert stream.feed(data, 0.0) == []
     assert stream.counters[3].size_mismatches == 1
+    assert stream.counters[3].wrong_size == A.size + 1
     assert stream.unknown_board_frames == 1
+    # The next good frame is used (taken by the tare here), the layout's size unchanged.
+    assert stream.feed(encode_frame(3, 1, np.full(A.size, 1000)), 0.002) == []
+    assert stream.counters[3].sequence.frames == 1 and stream.counters[3].taring == 1
+    assert stream.layouts[3].size == A.size
 
 
 def test_sequence_gaps_are_counted_per_board() -> None:
