@@ -21,8 +21,8 @@ segmented reduction: about ten numpy calls per step whatever the number of links
 This gives exactly the sums over the union of a link's patches, with no per-taxel Python loop.
 That numpy version is the reference; by default (``kernel="numba"``) each patch's sums are
 computed when its frame arrives, in the compiled pass that also checks the frame
-(:mod:`contact_estimation.fused`), and an estimate only adds each link's patch rows. Both kernels
-turn the sums into states with one compiled function (:func:`fused.link_states`).
+(:mod:`contact_estimation.patch_sums`), and an estimate only adds each link's patch rows. Both
+kernels turn the sums into states with one compiled function (:func:`patch_sums.link_states`).
 
 Bad input handling (documented in docs/contact_estimation.md), checked on every frame:
 
@@ -55,7 +55,18 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-import contact_estimation.fused as fused
+import contact_estimation.patch_sums as patch_sums
+from contact_estimation.frame_checks import (
+    DEFAULT_MAX_TAXEL_FORCE,
+    MAX_TAXEL_FORCE_RANGE,
+    GeometryMismatch,
+    InvalidTaxelData,
+    StuckDetector,
+    UnknownPatchError,
+    check_forces,
+    check_geometry_values,
+    check_shapes,
+)
 from phri_common import paper
 from phri_common.records import ContactState, TaxelArray
 
@@ -64,42 +75,9 @@ FloatArray = NDArray[np.floating]
 PAPER_TORQUE_LIMIT = paper.TORQUE_LIMIT
 """The paper limits the estimated torque's third component to 1.2 N·m (Sec. VI-A.1)."""
 
-DEFAULT_MAX_TAXEL_FORCE = 1000.0
-"""Default bound on one taxel's force [N]. A 7.5 mm taxel (56 mm²) at 1000 N is under 18 MPa,
-beyond any skin's rated range (the default calibration saturates at 0.0005 N/count × 64,535
-counts ≈ 32 N) and beyond any contact with a person; a larger value is a corrupted reading."""
-
-MAX_TAXEL_FORCE_RANGE = (1.0, 1.0e6)
-"""Allowed range of ``max_taxel_force`` [N]."""
-
 KERNELS = ("numba", "numpy")
-"""Allowed values of ``kernel``: the per-link sums compiled (:mod:`contact_estimation.fused`,
+"""Allowed values of ``kernel``: the per-link sums compiled (:mod:`contact_estimation.patch_sums`,
 the default) or in numpy (the reference, :meth:`ContactEstimator._link_sums_numpy`)."""
-
-
-class InvalidTaxelData(ValueError):
-    """A patch frame holds NaN/Inf values or arrays of inconsistent size; it was refused."""
-
-
-class GeometryMismatch(InvalidTaxelData):
-    """A frame's geometry differs from its patch's (learnt or set); it was refused.
-
-    Attributes:
-        patch: the patch.
-        expected: the patch's taxel count.
-        received: the frame's taxel count.
-    """
-
-    def __init__(self, patch: str, expected: int, received: int, what: str) -> None:
-        super().__init__(
-            f"patch {patch!r}: {what}: refused (a patch's geometry changes only when "
-            "announced: forget_geometry, the node's ~/reset_geometry)"
-        )
-        self.patch, self.expected, self.received = patch, expected, received
-
-
-class UnknownPatchError(KeyError):
-    """A frame arrived for a patch the estimator was not configured with."""
 
 
 @dataclass(frozen=True)
@@ -112,7 +90,7 @@ class EstimatorConfig:
             component to 1.2; ``inf`` = no limit). The estimated torque is clamped to
             ``[-limit, limit]`` on each axis.
         max_taxel_force: the skin's rated range [N]: a frame with any |force| above it is
-            refused as corrupted (:data:`DEFAULT_MAX_TAXEL_FORCE`).
+            refused as corrupted (:data:`~contact_estimation.frame_checks.DEFAULT_MAX_TAXEL_FORCE`).
         stuck_timeout: a touched patch whose forces repeat bit for bit for longer than this [s]
             (by frame stamps) is stuck, and its frames are refused (:class:`StuckDetector`).
         kernel: how the per-link sums are computed, one of :data:`KERNELS`; both give the same
@@ -182,137 +160,6 @@ def _geometry_rows(
     return rows
 
 
-def _check_shapes(
-    positions: FloatArray, normals: FloatArray, forces: FloatArray, weights: FloatArray | None
-) -> int:
-    n = forces.shape[0] if forces.ndim == 1 else -1
-    if (
-        n < 0
-        or positions.shape != (n, 3)
-        or normals.shape != (n, 3)
-        or (weights is not None and weights.shape != (n,))
-    ):
-        raise InvalidTaxelData(
-            f"taxel arrays of mismatched size: positions {positions.shape}, normals "
-            f"{normals.shape}, forces {forces.shape}, weights "
-            f"{None if weights is None else weights.shape}"
-        )
-    if n == 0:
-        raise InvalidTaxelData("empty taxel cloud: a patch has at least one taxel")
-    return n
-
-
-_ONES: dict[tuple[int, np.dtype], FloatArray] = {}
-
-
-def _ones(n: int, dtype: np.dtype) -> FloatArray:
-    """A cached vector of n ones (the summing vector of the sum tests)."""
-    ones = _ONES.get((n, dtype))
-    if ones is None:
-        if len(_ONES) >= 64:
-            _ONES.clear()
-        ones = _ONES[(n, dtype)] = np.ones(n, dtype=dtype)
-    return ones
-
-
-def check_forces(forces: FloatArray, max_force: float) -> float:
-    """Refuse NaN/Inf forces and forces beyond ``±max_force`` [N]; return ‖f‖² [N²].
-
-    Cheap test first: ``‖f‖² = fᵀf`` (one BLAS dot). Every |fᵢ| ≤ ‖f‖, so ‖f‖ ≤ ``max_force``
-    proves every force finite and within the range; NaN/Inf or an overflow fail the test. Only
-    then does the element-wise check run, which clears a false alarm (many forces that are
-    each within range) or names what is wrong.
-
-    Raises:
-        InvalidTaxelData: how many forces are bad, the worst value and the allowed range.
-    """
-    with np.errstate(all="ignore"):
-        norm2 = float(forces @ forces)
-    if norm2 <= max_force * max_force:
-        return norm2
-    n = forces.shape[0]
-    nonfinite = int(np.count_nonzero(~np.isfinite(forces)))
-    if nonfinite:
-        raise InvalidTaxelData(f"{nonfinite} of {n} taxel forces are NaN or infinite")
-    f_min, f_max = float(forces.min()), float(forces.max())
-    if -max_force <= f_min and f_max <= max_force:
-        return norm2
-    over = int(np.count_nonzero(np.abs(forces) > max_force))
-    worst = f_max if abs(f_max) >= abs(f_min) else f_min
-    raise InvalidTaxelData(
-        f"{over} of {n} taxel forces beyond the skin's rated range (max_taxel_force): "
-        f"{worst:.6g} N, allowed [{-max_force:g}, {max_force:g}] N"
-    )
-
-
-def check_geometry_values(
-    positions: FloatArray, normals: FloatArray, weights: FloatArray | None
-) -> None:
-    """Refuse NaN/Inf positions, normals or weights.
-
-    Cheap test first: the sum of every element, ``1ᵀ P 1 + 1ᵀ N 1 (+ Σ ω)`` (one BLAS call per
-    (N, 3) array, fast on the strided float32 columns of a decoded message, where a plain
-    ``sum`` is about three times slower); a finite sum proves every element finite. Only a sum
-    that is not finite triggers the element-wise check, which clears a false alarm (an
-    overflow of finite values) or names the field.
-
-    Raises:
-        InvalidTaxelData: naming the field and how many taxels are bad.
-    """
-    n = positions.shape[0]
-    ones = _ones(n, positions.dtype)
-    with np.errstate(all="ignore"):
-        total = float(np.add.reduce(ones @ positions + ones @ normals))
-        if weights is not None:
-            total += float(np.add.reduce(weights))
-    if math.isfinite(total):
-        return
-    for name, arr in (("position", positions), ("normal", normals), ("weight", weights)):
-        if arr is not None and not np.isfinite(arr).all():
-            bad = int(np.count_nonzero(~np.isfinite(arr).reshape(n, -1).all(axis=1)))
-            raise InvalidTaxelData(f"{bad} of {n} taxel {name}s are NaN or infinite")
-
-
-class StuckDetector:
-    """A stuck skin: a touched patch (‖f‖ > 0) whose forces repeat bit for bit for longer than
-    ``timeout`` [s] of frame stamps. A real skin's ADC noise never repeats a loaded frame
-    exactly, so this is a dead board or driver replaying its last frame: a fault, not a licence
-    to push (design §8). Its frames are refused until they change; downstream the link's contact
-    state then goes stale and the controller stops.
-
-    Cheap on the hot path: ‖f‖², which the range check computes anyway, is the fingerprint; the
-    arrays are compared only when it repeats.
-    """
-
-    def __init__(self, timeout: float) -> None:
-        self.timeout_ns = int(timeout * 1e9)
-        self._fingerprint: dict[str, float] = {}
-        self._since: dict[str, int] = {}
-
-    def check(self, patch: str, norm2: float, forces: FloatArray, previous: FloatArray | None,
-              stamp_ns: int, unchanged: bool | None = None) -> None:
-        """Take ``patch``'s new frame (‖f‖² = ``norm2``) against its ``previous`` forces
-        (``unchanged``: their element-wise equality where the caller has computed it; then
-        ``previous`` is not read and may be None).
-
-        Raises:
-            InvalidTaxelData: the patch has been stuck for longer than the timeout.
-        """
-        if unchanged is None:
-            unchanged = (norm2 == self._fingerprint.get(patch) and previous is not None
-                         and np.array_equal(forces, previous))
-        if norm2 == 0.0 or norm2 != self._fingerprint.get(patch) or not unchanged:
-            self._fingerprint[patch] = norm2
-            self._since[patch] = stamp_ns
-            return
-        stuck_for = stamp_ns - self._since[patch]
-        if stuck_for > self.timeout_ns:
-            raise InvalidTaxelData(
-                f"patch {patch!r} stuck: its loaded frame has repeated bit for bit for "
-                f"{stuck_for * 1e-9:.3f} s (stuck_timeout {self.timeout_ns * 1e-9:g} s); refused"
-            )
-
-
 class ContactEstimator:
     """Per-link contact estimation over a fixed set of skin patches.
 
@@ -357,11 +204,11 @@ class ContactEstimator:
         self._numba = config.kernel == "numba"
         self._limit2 = config.max_taxel_force * config.max_taxel_force  # [N²]
         if self._numba:
-            fused.warm_up()
+            patch_sums.warm_up()
 
     def _sum_patches(self) -> None:
         """Every patch's sums from its stored forces (the numba kernel's per-patch table)."""
-        fused.all_patch_sums(self._forces, self._rows_t, self._bounds,
+        patch_sums.all_patch_sums(self._forces, self._rows_t, self._bounds,
                              self.config.force_threshold, self._patch_table)
 
     def _build(self) -> None:
@@ -408,7 +255,8 @@ class ContactEstimator:
         self._groups = np.cumsum([0] + [len(p) for p in self.links.values()], dtype=np.int64)
         self._link_rows = np.arange(len(self._link_items) + 1, dtype=np.int64)
         self._counts = np.zeros(len(self._link_items), dtype=np.int64)
-        self._patch_table = np.empty((len(self._order), self._rows.shape[0] + fused.TABLE_EXTRA))
+        width = self._rows.shape[0] + patch_sums.TABLE_EXTRA
+        self._patch_table = np.empty((len(self._order), width))
         self._sum_patches()
 
     def set_geometry(
@@ -420,7 +268,7 @@ class ContactEstimator:
     ) -> None:
         """Set a patch's taxel geometry (link frame) ahead of its first frame."""
         self._patch_link(patch)
-        _check_shapes(positions, normals, np.zeros(positions.shape[0]), weights)
+        check_shapes(positions, normals, np.zeros(positions.shape[0]), weights)
         try:
             check_geometry_values(positions, normals, weights)
         except InvalidTaxelData as err:
@@ -484,7 +332,7 @@ class ContactEstimator:
                      stamp_ns: int) -> None:
         """Check a frame's forces [N] (shape already checked), then store them: the range
         (:func:`check_forces`), the stuck skin (:class:`StuckDetector`); with the numba kernel
-        one fused pass (:func:`fused.take_frame`) also updates the patch's sums.
+        one fused pass (:func:`patch_sums.take_frame`) also updates the patch's sums.
 
         Raises:
             InvalidTaxelData: as check_forces or the stuck detector; nothing is stored.
@@ -498,11 +346,11 @@ class ContactEstimator:
             self._stamps[patch] = stamp_ns
             return
         threshold = self.config.force_threshold
-        norm2, unchanged = fused.take_frame(forces, self._forces, self._rows_t, c0, threshold,
+        norm2, unchanged = patch_sums.take_frame(forces, self._forces, self._rows_t, c0, threshold,
                                             self._limit2, self._patch_table, row)
         if not norm2 <= self._limit2:  # names the bad value and raises, or clears the alarm
             check_forces(forces, self.config.max_taxel_force)
-            norm2, unchanged = fused.take_frame(forces, self._forces, self._rows_t, c0,
+            norm2, unchanged = patch_sums.take_frame(forces, self._forces, self._rows_t, c0,
                                                 threshold, math.inf, self._patch_table, row)
         # A stuck frame is refused only when unchanged, and an unchanged frame wrote nothing.
         self._stuck.check(patch, norm2, forces, None, stamp_ns, unchanged)
@@ -527,7 +375,7 @@ class ContactEstimator:
             InvalidTaxelData: the frame is refused (the patch keeps its previous frame).
         """
         link = self._patch_link(patch)
-        _check_shapes(taxels.positions, taxels.normals, taxels.forces, taxels.weights)
+        check_shapes(taxels.positions, taxels.normals, taxels.forces, taxels.weights)
         geometry = (taxels.positions, taxels.normals, taxels.weights)
         known_objects = self._taken.get(patch)
         if known_objects is None or any(
@@ -544,7 +392,7 @@ class ContactEstimator:
 
         Same states and the same refusals as :meth:`update` on the table's columns; with the
         numba kernel a frame of a patch whose geometry is known (same size, same weighting)
-        and ``check_geometry=False`` takes one compiled pass (:func:`fused.take_table`: the
+        and ``check_geometry=False`` takes one compiled pass (:func:`patch_sums.take_table`: the
         NaN/Inf test of the geometry, the range and stuck tests of the forces, the sums, the
         link's state); every other frame, and every frame that pass flags, goes through
         :meth:`update`, which takes the geometry or names what is wrong.
@@ -562,8 +410,8 @@ class ContactEstimator:
             c0, _, row = self._slots[patch]
             link = self.patch_links[patch]
             i = self._link_index[link]
-            out = np.empty((1, fused.STATE_WIDTH))
-            total, norm2, unchanged = fused.take_table(
+            out = np.empty((1, patch_sums.STATE_WIDTH))
+            total, norm2, unchanged = patch_sums.take_table(
                 table, self._forces, self._rows_t, c0, self.config.force_threshold,
                 self._limit2, self._patch_table, row, self._groups, self._limit, i, out,
                 self._counts)
@@ -579,13 +427,13 @@ class ContactEstimator:
     def _take_state(self, patch: str, link: str, forces: FloatArray,
                     stamp_ns: int) -> ContactState:
         """Take a frame's forces [N] (:meth:`_take_forces`) and return ``link``'s state; with
-        the numba kernel in one compiled call (:func:`fused.take_state`) when they are within
+        the numba kernel in one compiled call (:func:`patch_sums.take_state`) when they are within
         the range (any other frame takes the checked path, which names what is wrong)."""
         i = self._link_index[link]
         slot = self._slots[patch]
         if self._numba:
-            out = np.empty((1, fused.STATE_WIDTH))
-            norm2, unchanged = fused.take_state(
+            out = np.empty((1, patch_sums.STATE_WIDTH))
+            norm2, unchanged = patch_sums.take_state(
                 forces, self._forces, self._rows_t, slot[0], self.config.force_threshold,
                 self._limit2, self._patch_table, slot[2], self._groups, self._limit, i, out,
                 self._counts)
@@ -603,7 +451,7 @@ class ContactEstimator:
         skin driver passes its layout's arrays every frame) skips these checks: a
         TaxelArray's arrays cannot be written."""
         if not (self._numba and taxels.weights is None
-                and math.isfinite(fused.geometry_total(taxels.positions, taxels.normals))):
+                and math.isfinite(patch_sums.geometry_total(taxels.positions, taxels.normals))):
             check_geometry_values(taxels.positions, taxels.normals, taxels.weights)
         known = self._geometry.get(patch)
         if known is None:
@@ -653,7 +501,7 @@ class ContactEstimator:
         return self._states(0, len(self._link_items))
 
     def _link_sums_numpy(self) -> NDArray[np.float64]:
-        """The numpy reference of :func:`contact_estimation.fused.patch_sums` summed per link
+        """The numpy reference of :func:`contact_estimation.patch_sums.patch_sums` summed per link
         (the tests' oracle): a row per link, ``[Σ rows (force rows × F), min p (3), max p (3),
         count]`` over the union of the link's patches."""
         forces = self._forces
@@ -676,14 +524,14 @@ class ContactEstimator:
             sums, groups = self._patch_table, self._groups
         else:
             sums, groups = self._link_sums_numpy(), self._link_rows
-        table = np.empty((last - first, fused.STATE_WIDTH))
-        fused.link_states(sums, groups, self._limit, first, last, table, self._counts)
+        table = np.empty((last - first, patch_sums.STATE_WIDTH))
+        patch_sums.link_states(sums, groups, self._limit, first, last, table, self._counts)
         return {self._link_items[i][0]: self._link_state(i, table, i - first)
                 for i in range(first, last)}
 
     def _link_state(self, i: int, table: NDArray[np.float64], k: int = 0) -> ContactState:
         """Link ``i``'s state from row ``k`` of a state table just written by
-        :func:`fused.link_states` (taxel count in ``self._counts[i]``); freezes ``table``:
+        :func:`patch_sums.link_states` (taxel count in ``self._counts[i]``); freezes ``table``:
         the state's vectors are read-only views of it, so it must not be reused."""
         table.flags.writeable = False
         link, patches = self._link_items[i]

@@ -146,15 +146,15 @@ def test_a_stuck_table_is_refused_and_a_table_of_another_shape_names_it() -> Non
 
 def test_one_pass_kernel_writes_nothing_for_non_finite_geometry() -> None:
     """take_table refuses a frame with a NaN position before it stores its forces or sums."""
-    from contact_estimation import fused
+    from contact_estimation import patch_sums
 
     rng = np.random.default_rng(4)
     table = _table(rng, 20, weighted=False)
     table[7, 1] = math.nan
     stored, sums = np.full(21, 0.25), np.full((1, 16), 0.5)
-    out, counts = np.full((1, fused.STATE_WIDTH), 0.75), np.full(1, 9, dtype=np.int64)
+    out, counts = np.full((1, patch_sums.STATE_WIDTH), 0.75), np.full(1, 9, dtype=np.int64)
     rows = rng.uniform(size=(20, 9))
-    total, norm2, _ = fused.take_table(_frozen(table), stored, rows, 0, 0.05, 1e6, sums, 0,
+    total, norm2, _ = patch_sums.take_table(_frozen(table), stored, rows, 0, 0.05, 1e6, sums, 0,
                                        np.array([0, 1]), np.ones(3), 0, out, counts)
     assert math.isnan(total) and math.isnan(norm2)
     assert (stored == 0.25).all() and (sums == 0.5).all() and (out == 0.75).all()

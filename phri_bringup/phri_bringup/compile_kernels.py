@@ -23,15 +23,15 @@ def _controller() -> None:
 
 
 def _estimator() -> None:
-    from contact_estimation import fused
+    from contact_estimation import patch_sums
 
-    fused.warm_up()
+    patch_sums.warm_up()
 
 
 def _skin_driver() -> None:
-    from skin_driver import fused
+    from skin_driver import frame_calibration
 
-    fused.warm_up()
+    frame_calibration.warm_up()
 
 
 KERNELS: dict[str, Callable[[], None]] = {

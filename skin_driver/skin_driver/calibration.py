@@ -19,8 +19,8 @@ Pipeline for every frame of one patch (N taxels, raw counts ``c``):
 6. Output ``max(f_filtered − baseline, 0)`` [N]: the normal force pressing on each taxel.
 
 ``CalibrationConfig.kernel`` picks the implementation: ``numpy`` (this module, the reference
-and the tests' oracle) or ``numba`` (:mod:`skin_driver.fused`: the same steps in two compiled
-loops over the taxels; the driver node's default).
+and the tests' oracle) or ``numba`` (:mod:`skin_driver.frame_calibration`: the same steps in two
+compiled loops over the taxels; the driver node's default).
 """
 
 from __future__ import annotations
@@ -69,7 +69,7 @@ class CalibrationConfig:
             0 disables the check.
         min_free_fraction: fraction of live taxels that must be untouched to estimate the
             common-mode drift; below it, touched taxels' baselines are frozen.
-        kernel: ``numpy`` (reference) or ``numba`` (:mod:`skin_driver.fused`, compiled).
+        kernel: ``numpy`` (reference) or ``numba`` (:mod:`skin_driver.frame_calibration`, compiled).
     """
 
     default_gain: float = 0.0005
@@ -190,7 +190,11 @@ class PatchCalibrator:
         self._saturated = 0
         self._filtered = np.zeros(size)
         if config.kernel == "numba":  # imported here: numba only where it is used
-            from skin_driver.fused import calibrate_counts, track_drift_and_output, warm_up
+            from skin_driver.frame_calibration import (
+                calibrate_counts,
+                track_drift_and_output,
+                warm_up,
+            )
 
             warm_up()
             self._kernels = (calibrate_counts, track_drift_and_output)
@@ -265,7 +269,7 @@ class PatchCalibrator:
         self._baseline = np.where(touched, 0.0, mean)
 
     def _process_fused(self, counts: NDArray[np.integer], t: float) -> FloatArray | None:
-        """:meth:`process` with the compiled kernels (:mod:`skin_driver.fused`)."""
+        """:meth:`process` with the compiled kernels (:mod:`skin_driver.frame_calibration`)."""
         calibrate_counts, track_drift_and_output = self._kernels
         cfg = self.config
         window = cfg.filter_window

@@ -1,4 +1,4 @@
-"""The compiled per-link sums (contact_estimation.fused) against the numpy reference.
+"""The compiled per-link sums (contact_estimation.patch_sums) against the numpy reference.
 
 Both kernels run on the same randomized patches, links, weights, thresholds and forces; every
 link's contact state must agree (flags and counts exactly, vectors to rounding). The numpy
@@ -99,7 +99,7 @@ def test_unknown_kernel_is_refused_with_the_allowed_values() -> None:
        float32=st.booleans())
 def test_scan_frame_matches_the_numpy_checks(seed: int, n: int, same: bool,
                                              float32: bool) -> None:
-    from contact_estimation.fused import scan_frame
+    from contact_estimation.patch_sums import scan_frame
 
     rng = np.random.default_rng(seed)
     forces = rng.uniform(-30.0, 30.0, n).astype(np.float32 if float32 else np.float64)
@@ -119,7 +119,7 @@ def test_scan_frame_matches_the_numpy_checks(seed: int, n: int, same: bool,
 @pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf, 1e200])
 def test_norm2_of_a_bad_frame_fails_the_range_test(bad: float) -> None:
     """Summed in any order (vectorised), ‖f‖² still propagates NaN/Inf and overflows."""
-    from contact_estimation.fused import scan_frame
+    from contact_estimation.patch_sums import scan_frame
 
     forces = np.full(37, 0.5)
     forces[17] = bad
@@ -223,7 +223,7 @@ def test_geometry_total_is_finite_exactly_when_every_element_is(
         seed: int, n: int, bad: float | None, field: int, float32: bool) -> None:
     """On the columns of a decoded message's (N, 7) float32 table, as the node hands them over,
     and on float64 arrays: one bad position or normal component makes the total non-finite."""
-    from contact_estimation.fused import geometry_total
+    from contact_estimation.patch_sums import geometry_total
 
     rng = np.random.default_rng(seed)
     table = rng.uniform(-1.0, 1.0, (n, 7)).astype(np.float32 if float32 else np.float64)

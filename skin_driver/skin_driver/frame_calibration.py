@@ -1,7 +1,7 @@
 """Compiled calibration of one skin frame: two fused loops over the taxels (numba).
 
 The same arithmetic as :class:`~skin_driver.calibration.PatchCalibrator`'s numpy path (the
-reference and the tests' oracle, ``test_fused_calibration.py``), in two passes over the taxels
+reference and the tests' oracle, ``test_frame_calibration.py``), in two passes over the taxels
 instead of about thirty numpy operations, each a pass and an allocation (≈ 85 µs for a
 2,000-taxel frame against a few µs here):
 
