@@ -32,8 +32,8 @@ import numpy as np
 
 from phri_common.procstat import load_line
 from phri_common.testing import isolate_ros_environment
-from phri_sim.scenarios import SCENARIOS, start_scenario
-from phri_sim.sim import Simulation
+from phri_sim.scenarios.catalogue import SCENARIOS, start_scenario
+from phri_sim.world.simulation import Simulation
 
 
 def step_times(skins: bool, n: int = 2000) -> np.ndarray:
@@ -93,7 +93,7 @@ def scenario_speed(name: str, seconds: float | None, setting: str = "fast",
     import rclpy
     from rclpy.context import Context
 
-    from phri_sim.runner import ScenarioRun
+    from phri_sim.ros.runner import ScenarioRun
 
     context = Context()
     rclpy.init(context=context)

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from phri_bringup import graph
+from phri_bringup.graph import nodes as graph
 
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGES = sorted(p.parent.name for p in ROOT.glob("*/package.xml"))

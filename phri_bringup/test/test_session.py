@@ -11,9 +11,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from phri_bringup.graph import RECORDED_EXTRA_TOPICS, SIM_TOPICS
-from phri_bringup.observer import RecordingSink
-from phri_bringup.session import StopFlag, run_session
+from phri_bringup.cli.session import StopFlag, run_session
+from phri_bringup.graph.nodes import RECORDED_EXTRA_TOPICS, SIM_TOPICS
+from phri_bringup.observer.node import RecordingSink
 
 pytestmark = pytest.mark.ros
 
@@ -141,7 +141,7 @@ def test_recording_decodes_with_mcap_ros2_too(recorded_run: Any) -> None:
 def test_push_moves_the_robot_and_plots_show_it(recorded_run: Any, tmp_path: Path) -> None:
     """The right forearm is pressed from 1 s on: the estimated force rises to the order of the
     15 N press, the robot yields (arm joints move, within the 0.15 rad/s bound) and ψ rises."""
-    from phri_bringup.plots import make_plots, read_run
+    from phri_bringup.reports.plots import make_plots, read_run
 
     directory, _ = recorded_run
     data = read_run(directory)

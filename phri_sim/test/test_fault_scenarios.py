@@ -27,8 +27,8 @@ from typing import Any
 
 import pytest
 
-from phri_sim.body_forces import limit_failures
-from phri_sim.runner import run_scenario
+from phri_sim.evaluation.body_forces import limit_failures
+from phri_sim.ros.runner import run_scenario
 
 FAULT_SCENARIO = "waltz_paper"
 FAULT_TIME = 5.0

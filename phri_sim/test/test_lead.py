@@ -1,4 +1,5 @@
-"""Lead scenarios and the followability search (phri_sim.lead), without running the nodes."""
+"""Lead scenarios and the followability search (phri_sim.studies.leads), without running the
+nodes."""
 
 from __future__ import annotations
 
@@ -8,8 +9,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from phri_sim.following import Bars
-from phri_sim.lead import (
+from phri_sim.evaluation.following_metrics import Bars
+from phri_sim.scenarios.catalogue import SCENARIOS, start_scenario
+from phri_sim.studies.leads import (
     FULL_TIMING,
     Lead,
     LeadTiming,
@@ -19,8 +21,7 @@ from phri_sim.lead import (
     lead_scenario,
     registered,
 )
-from phri_sim.scenarios import SCENARIOS, start_scenario
-from phri_sim.sim import Simulation
+from phri_sim.world.simulation import Simulation
 
 
 def test_profile_distance_is_the_integral_of_its_speed() -> None:

@@ -15,17 +15,17 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from phri_sim.person import LEFT_HAND, PERSON_PARTS, TORSO, BodyPartSpec, PartTarget
-from phri_sim.profiles import minimum_jerk, minimum_jerk_rate
-from phri_sim.scenarios import (
+from phri_sim.scenarios.catalogue import (
     SCENARIOS,
     WALTZ_FORCE,
     WALTZ_START_YAW,
     start_scenario,
     waltz_contact,
 )
-from phri_sim.sim import SimConfig, Simulation
-from phri_sim.skin import SkinConfig
+from phri_sim.scenarios.motion_profiles import minimum_jerk, minimum_jerk_rate
+from phri_sim.world.person_body import LEFT_HAND, PERSON_PARTS, TORSO, BodyPartSpec, PartTarget
+from phri_sim.world.simulation import SimConfig, Simulation
+from phri_sim.world.skin_footprint import SkinConfig
 
 
 def _quiet_sim(**kwargs: object) -> Simulation:

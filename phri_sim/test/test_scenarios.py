@@ -32,9 +32,9 @@ from typing import Any
 
 import pytest
 
-from phri_sim.body_forces import limit_failures
-from phri_sim.runner import run_scenario
-from phri_sim.scenarios import WALTZ_DANCE_RANGE, WALTZ_SHORT
+from phri_sim.evaluation.body_forces import limit_failures
+from phri_sim.ros.runner import run_scenario
+from phri_sim.scenarios.catalogue import WALTZ_DANCE_RANGE, WALTZ_SHORT
 
 
 def _run(ros_context: Any, name: str, duration: float, **options: Any) -> dict[str, Any]:

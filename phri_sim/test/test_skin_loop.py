@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 
-from phri_sim.runner import ScenarioRun, run_scenario
+from phri_sim.ros.runner import ScenarioRun, run_scenario
 
 TIMING = ("wall_time", "real_time_factor", "cpu_time", "real_time_factor_cpu")
 

@@ -1,0 +1,210 @@
+"""One simulated session: the graph's in-process nodes, lock-step, with the parameter files.
+
+Wraps :class:`phri_sim.ros.runner.ScenarioRun` (unchanged) so that
+
+* the nodes get the sections of the same ``config/<scenario>.yaml`` the launch file passes
+  (the runner's own lock-step values, :data:`phri_bringup.graph.nodes.LOCKSTEP_OVERRIDES`,
+  excepted);
+* an :class:`~phri_bringup.observer.node.ObserverNode` joins the executor (recording, live view);
+* shutdown is ordered: the controller goes first (its ``destroy_node`` publishes zero velocity),
+  the executor spins until the observer and the simulator have received that zero command, then
+  everything else is destroyed and the context shut down — on a normal end, an error, or a stop
+  request (Ctrl-C / SIGTERM via :class:`StopFlag`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import rclpy
+from rclpy.context import Context
+from rclpy.signals import SignalHandlerOptions
+
+import phri_bringup.graph.parameter_files as param_files
+from phri_bringup.graph.nodes import (
+    BRIDGE,
+    CONTROLLER,
+    ESTIMATION,
+    canonical_scenario,
+    config_file,
+    robot_description_urdf,
+)
+from phri_bringup.graph.nodes import scenario_file as scenario_file_stem
+from phri_bringup.observer.node import ObserverNode, Sink
+
+ZERO_WAIT_S = 3.0
+"""Wall time [s] the shutdown waits for the final zero command to be received."""
+
+
+class Interrupted(RuntimeError):
+    """The session was asked to stop (Ctrl-C / SIGTERM) before its end."""
+
+
+class StopFlag:
+    """Set from a signal handler; checked by the session between control periods."""
+
+    def __init__(self) -> None:
+        self.requested = False
+
+    def set(self, *_: Any) -> None:
+        self.requested = True
+
+
+@dataclasses.dataclass
+class SessionResult:
+    """What a session produced."""
+
+    metrics: dict[str, Any]
+    zero_at_exit: bool
+    interrupted: bool
+    message_counts: dict[str, int]
+
+
+def load_sections(scenario: str, params_file: str | Path | None = None
+                  ) -> dict[str, dict[str, Any]]:
+    """Parameter sections of a scenario's file (or ``params_file``), validated.
+
+    Raises:
+        ValueError: a key is not a declared parameter or a value is refused (all listed).
+    """
+    path = Path(params_file) if params_file else config_file(scenario_file_stem(scenario))
+    sections = param_files.load(path)
+    problems = param_files.validate(sections)
+    if problems:
+        raise ValueError(f"{path}: " + "; ".join(problems))
+    return sections
+
+
+@contextlib.contextmanager
+def _scenario_parameters(name: str, sections: dict[str, dict[str, Any]]) -> Iterator[None]:
+    """Let the runner see the file's parameters as the scenario's while its nodes are built."""
+    from phri_sim.scenarios import catalogue as scenarios
+
+    original = scenarios.SCENARIOS[name]
+    scenarios.SCENARIOS[name] = dataclasses.replace(
+        original,
+        controller_parameters=dict(sections.get(CONTROLLER, original.controller_parameters)),
+        estimation_parameters=dict(sections.get(ESTIMATION, original.estimation_parameters)),
+    )
+    try:
+        yield
+    finally:
+        scenarios.SCENARIOS[name] = original
+
+
+def run_session(
+    scenario: str,
+    *,
+    sinks: list[Sink] | None = None,
+    params_file: str | Path | None = None,
+    duration: float | None = None,
+    short: bool = False,
+    seed: int = 0,
+    pace: float | None = None,
+    progress: Callable[[float, float], None] | None = None,
+    stop: StopFlag | None = None,
+    context: Context | None = None,
+    inspect: Callable[[Any], None] | None = None,
+    fault: str = "",
+    fault_time: float = 5.0,
+    fidelity: str = "fast",
+    skin_driver: bool = False,
+    sensor_transport: str = "direct",
+) -> SessionResult:
+    """Run ``scenario`` (any accepted spelling) lock-step through the real nodes.
+
+    Args:
+        sinks: receive every documented topic (closed at the end, also on errors).
+        params_file: parameter file instead of ``config/<scenario>.yaml``.
+        duration, short, seed: see :class:`phri_sim.ros.runner.ScenarioRun`.
+        pace: run at most this many times faster than the wall clock (live viewing).
+        progress: called with (sim time [s], duration [s]) once per simulated second.
+        stop: checked once per simulated second; when set, the run ends early (zero command,
+            clean shutdown) and ``interrupted`` is True.
+        context: an initialised rclpy context to use (tests); else one is made and shut down.
+        inspect: called with the :class:`~phri_sim.ros.runner.ScenarioRun` before it runs (tests).
+        fault, fault_time: sensor fault to inject and its start [s]
+            (:mod:`phri_sim.world.sensor_faults`; '' = none).
+        fidelity, skin_driver, sensor_transport: time resolution, the skin driver in the loop
+            and how the sensor data reach the nodes (see :class:`phri_sim.ros.runner.ScenarioRun`).
+    """
+    from phri_sim.ros.runner import ScenarioRun
+
+    name = canonical_scenario(scenario)
+    sections = load_sections(name, params_file)
+    bridge_scenario = sections.get(BRIDGE, {}).get("scenario", name)
+    if bridge_scenario != name:
+        raise ValueError(f"parameter file is for scenario {bridge_scenario!r}, not {name!r}")
+    own = context is None
+    if own:
+        context = Context()
+        rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+    assert context is not None
+    sinks = sinks or []
+    observer: list[ObserverNode] = []
+
+    def make_observer(ctx: Context) -> ObserverNode:
+        node = ObserverNode(ctx, sinks, pace=pace, robot_description=robot_description_urdf())
+        observer.append(node)
+        return node
+
+    def on_progress(t: float, total: float) -> None:
+        if stop is not None and stop.requested:
+            raise Interrupted(f"stopped at sim time {t:.1f} s")
+        if progress is not None:
+            progress(t, total)
+
+    run = None
+    metrics: dict[str, Any] = {}
+    interrupted = False
+    zero = False
+    try:
+        with _scenario_parameters(name, sections):
+            run = ScenarioRun(name, context=context, duration=duration, short=short, seed=seed,
+                              recorder=make_observer, progress=on_progress, fault=fault,
+                              fault_time=fault_time, fidelity=fidelity,
+                              skin_driver=skin_driver, sensor_transport=sensor_transport)
+        if inspect is not None:
+            inspect(run)
+        try:
+            metrics = run.run()
+        except Interrupted:
+            interrupted = True
+    finally:
+        if run is not None:
+            zero = _shutdown(run, observer[0] if observer else None)
+        for sink in sinks:
+            sink.close()
+        if own:
+            context.try_shutdown()
+    return SessionResult(metrics, zero, interrupted,
+                         dict(observer[0].message_counts) if observer else {})
+
+
+def _shutdown(run: Any, observer: ObserverNode | None) -> bool:
+    """Controller first (zero command), wait until it arrived, then the rest; True if the
+    observer's last commands were zero."""
+    executor = run.executor
+    controller = run.controller
+    executor.remove_node(controller)
+    controller.destroy_node()  # publishes zero velocity on /cmd_vel and both arms
+    zero = False
+    deadline = time.monotonic() + ZERO_WAIT_S
+    while observer is not None and time.monotonic() < deadline:
+        executor.spin_once(timeout_sec=0.05)
+        if observer.last_command_is_zero():
+            zero = True
+            break
+    # Let the simulator take the zero command too (it would time out to zero anyway).
+    for _ in range(5):
+        executor.spin_once(timeout_sec=0.01)
+    for node in (*run.extra, run.probe, run.estimation, run.bridge):
+        executor.remove_node(node)
+        node.destroy_node()
+    executor.shutdown()
+    return zero
