@@ -84,7 +84,7 @@ SETTINGS: dict[str, dict[str, Any]] = {
     "paper+driver": {"fidelity": "paper", "skin_driver": True},
     "paper+topics": {"fidelity": "paper", "sensor_transport": "topics"},
 }
-"""Benchmark setting → ScenarioRun options."""
+"""Benchmark setting → RunOptions fields."""
 
 
 def scenario_speed(name: str, seconds: float | None, setting: str = "fast",
@@ -93,11 +93,13 @@ def scenario_speed(name: str, seconds: float | None, setting: str = "fast",
     import rclpy
     from rclpy.context import Context
 
+    from phri_sim.ros.run_options import RunOptions
     from phri_sim.ros.runner import ScenarioRun
 
     context = Context()
     rclpy.init(context=context)
-    run = ScenarioRun(name, context=context, duration=seconds, seed=1, **SETTINGS[setting])
+    run = ScenarioRun(SCENARIOS[name], RunOptions(duration=seconds, seed=1, **SETTINGS[setting]),
+                      context=context)
     phases = _phases(run)
     try:
         metrics = run.run()

@@ -32,9 +32,10 @@ def test_following_recomputed_from_the_recording_matches_the_run(tmp_path: Path)
     samples, same numbers: not merely close)."""
     from phri_bringup.cli.session import run_session
     from phri_bringup.observer.node import RecordingSink
+    from phri_sim.ros.run_options import RunOptions
 
     directory = tmp_path / "recording"
-    result = run_session("waltz", duration=7.0,
+    result = run_session("waltz", RunOptions(duration=7.0),
                          sinks=[RecordingSink(str(directory), skin_rate_hz=1.0)])
     live = result.metrics["following"]
     series = series_from_recording(directory, WALTZ_LINK)

@@ -179,6 +179,7 @@ def test_scenario_names_map_to_phri_sim() -> None:
 def test_runner_nodes_and_parameters_match_the_graph(ros_context: Any, scenario: str) -> None:
     """The in-process nodes are the graph's in-process nodes and hold the file's values."""
     from phri_bringup.cli.session import run_session
+    from phri_sim.ros.run_options import RunOptions
 
     specs = [n for n in graph.sim_graph(scenario) if n.in_process]
     sections = params.load(graph.config_file(graph.scenario_file(scenario)))
@@ -199,7 +200,7 @@ def test_runner_nodes_and_parameters_match_the_graph(ros_context: Any, scenario:
                 else:
                     assert actual == value, (spec.name, key)
 
-    result = run_session(scenario, duration=0.05, context=ros_context, inspect=inspect)
+    result = run_session(scenario, RunOptions(duration=0.05), context=ros_context, inspect=inspect)
     assert set(seen) == {s.name for s in specs}
     assert len(seen[graph.CONTROLLER]) > 10
     assert result.zero_at_exit

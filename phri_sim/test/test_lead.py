@@ -19,7 +19,6 @@ from phri_sim.studies.leads import (
     followability_map,
     lead_passes,
     lead_scenario,
-    registered,
 )
 from phri_sim.world.simulation import Simulation
 
@@ -67,8 +66,7 @@ def test_a_translation_moves_the_hold_rigidly_at_the_lead_speed(sim: Simulation)
     0.1 m/s in the cruise, heading unchanged."""
     lead = Lead("translate", 0.1, 90.0)
     sc = lead_scenario(lead, SHORT_PROFILE)
-    with registered(sc):
-        script = start_scenario(sim, sc)
+    script = start_scenario(sim, sc)
     hold = SCENARIOS["waltz"].make_script(sim)(0.0)
     t = SHORT_PROFILE.intro + SHORT_PROFILE.ramp + 0.5
     now = script(t)

@@ -252,12 +252,9 @@ def cmd_sim(args: argparse.Namespace) -> int:
     _log(f"scenario {name}: running lock-step (Ctrl-C stops cleanly) → {out}")
     runs: list[Any] = []
     try:
-        result = run_session(name, sinks=sinks, params_file=args.params, duration=args.duration,
-                             short=args.short, seed=args.seed, pace=pace,
-                             progress=_progress_printer(start), stop=stop,
-                             fault=args.fault or "", fault_time=args.fault_time,
-                             inspect=runs.append, fidelity=args.fidelity,
-                             skin_driver=args.skin_driver)
+        result = run_session(name, _run_options(args), sinks=sinks, params_file=args.params,
+                             pace=pace, progress=_progress_printer(start), stop=stop,
+                             inspect=runs.append)
     except Exception as err:
         _log(f"run failed: {type(err).__name__}: {err}")
         return 2 if isinstance(err, ValueError) else 1
@@ -301,6 +298,15 @@ def cmd_sim(args: argparse.Namespace) -> int:
     return 0
 
 
+def _run_options(args: argparse.Namespace) -> Any:
+    """``phri sim``'s :class:`~phri_sim.ros.run_options.RunOptions`."""
+    from phri_sim.ros.run_options import RunOptions
+
+    return RunOptions(duration=args.duration, short=args.short, seed=args.seed,
+                      fidelity=args.fidelity, skin_driver=args.skin_driver,
+                      fault=args.fault or "", fault_time=args.fault_time)
+
+
 def _open_sinks(args: argparse.Namespace, out: Path, record_dir: Path | None) -> list[Any]:
     """The live view (``--foxglove``, first: a busy port stops the command before any file is
     written) and the recording sink; ValueError naming the option when one cannot open."""
@@ -329,6 +335,8 @@ def _following(args: argparse.Namespace, name: str, metrics: dict[str, Any], run
     ``--no-baseline``) into ``metrics['motionless']``, the side-by-side table, and
     ``plots/following.png``."""
     from phri_bringup.reports.following_report import plot_following, run_motionless, side_by_side
+    from phri_sim.ros.run_options import RunOptions
+    from phri_sim.scenarios.catalogue import scenario_named
 
     if "following" not in metrics:
         if args.baseline:
@@ -338,8 +346,9 @@ def _following(args: argparse.Namespace, name: str, metrics: dict[str, Any], run
     still, still_series = None, None
     if args.baseline is not False:
         _log("motionless baseline: the same scenario with zero commands")
-        still, still_series = run_motionless(name, duration=args.duration, short=args.short,
-                                             seed=args.seed)
+        still, still_series = run_motionless(
+            scenario_named(name), RunOptions(duration=args.duration, short=args.short,
+                                             seed=args.seed))
         metrics["motionless"] = still
     for line in side_by_side(metrics["following"],
                              None if still is None else still.get("following")):

@@ -1,6 +1,6 @@
 """One simulated session: the graph's in-process nodes, lock-step, with the parameter files.
 
-Wraps :class:`phri_sim.ros.runner.ScenarioRun` (unchanged) so that
+Wraps :class:`phri_sim.ros.runner.ScenarioRun` so that
 
 * the nodes get the sections of the same ``config/<scenario>.yaml`` the launch file passes
   (the runner's own lock-step values, :data:`phri_bringup.graph.nodes.LOCKSTEP_OVERRIDES`,
@@ -14,12 +14,11 @@ Wraps :class:`phri_sim.ros.runner.ScenarioRun` (unchanged) so that
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import rclpy
 from rclpy.context import Context
@@ -36,6 +35,10 @@ from phri_bringup.graph.nodes import (
 )
 from phri_bringup.graph.nodes import scenario_file as scenario_file_stem
 from phri_bringup.observer.node import ObserverNode, Sink
+
+if TYPE_CHECKING:
+    from phri_sim.ros.run_options import RunOptions
+    from phri_sim.scenarios.catalogue import Scenario
 
 ZERO_WAIT_S = 3.0
 """Wall time [s] the shutdown waits for the final zero command to be received."""
@@ -80,66 +83,59 @@ def load_sections(scenario: str, params_file: str | Path | None = None
     return sections
 
 
-@contextlib.contextmanager
-def _scenario_parameters(name: str, sections: dict[str, dict[str, Any]]) -> Iterator[None]:
-    """Let the runner see the file's parameters as the scenario's while its nodes are built."""
-    from phri_sim.scenarios import catalogue as scenarios
+def session_scenario(scenario: str, params_file: str | Path | None = None) -> Scenario:
+    """The catalogue's ``scenario`` (any accepted spelling) with the controller and estimation
+    sections of its parameter file (or ``params_file``): the values the launch file gives the
+    nodes, as a scenario value for the runner.
 
-    original = scenarios.SCENARIOS[name]
-    scenarios.SCENARIOS[name] = dataclasses.replace(
-        original,
-        controller_parameters=dict(sections.get(CONTROLLER, original.controller_parameters)),
-        estimation_parameters=dict(sections.get(ESTIMATION, original.estimation_parameters)),
-    )
-    try:
-        yield
-    finally:
-        scenarios.SCENARIOS[name] = original
-
-
-def run_session(
-    scenario: str,
-    *,
-    sinks: list[Sink] | None = None,
-    params_file: str | Path | None = None,
-    duration: float | None = None,
-    short: bool = False,
-    seed: int = 0,
-    pace: float | None = None,
-    progress: Callable[[float, float], None] | None = None,
-    stop: StopFlag | None = None,
-    context: Context | None = None,
-    inspect: Callable[[Any], None] | None = None,
-    fault: str = "",
-    fault_time: float = 5.0,
-    fidelity: str = "fast",
-    skin_driver: bool = False,
-    sensor_transport: str = "direct",
-) -> SessionResult:
-    """Run ``scenario`` (any accepted spelling) lock-step through the real nodes.
-
-    Args:
-        sinks: receive every documented topic (closed at the end, also on errors).
-        params_file: parameter file instead of ``config/<scenario>.yaml``.
-        duration, short, seed: see :class:`phri_sim.ros.runner.ScenarioRun`.
-        pace: run at most this many times faster than the wall clock (live viewing).
-        progress: called with (sim time [s], duration [s]) once per simulated second.
-        stop: checked once per simulated second; when set, the run ends early (zero command,
-            clean shutdown) and ``interrupted`` is True.
-        context: an initialised rclpy context to use (tests); else one is made and shut down.
-        inspect: called with the :class:`~phri_sim.ros.runner.ScenarioRun` before it runs (tests).
-        fault, fault_time: sensor fault to inject and its start [s]
-            (:mod:`phri_sim.world.sensor_faults`; '' = none).
-        fidelity, skin_driver, sensor_transport: time resolution, the skin driver in the loop
-            and how the sensor data reach the nodes (see :class:`phri_sim.ros.runner.ScenarioRun`).
+    Raises:
+        ValueError: the file is refused (:func:`load_sections`) or is for another scenario.
     """
-    from phri_sim.ros.runner import ScenarioRun
+    from phri_sim.scenarios.catalogue import scenario_named
 
     name = canonical_scenario(scenario)
     sections = load_sections(name, params_file)
     bridge_scenario = sections.get(BRIDGE, {}).get("scenario", name)
     if bridge_scenario != name:
         raise ValueError(f"parameter file is for scenario {bridge_scenario!r}, not {name!r}")
+    base = scenario_named(name)
+    return dataclasses.replace(
+        base,
+        controller_parameters=dict(sections.get(CONTROLLER, base.controller_parameters)),
+        estimation_parameters=dict(sections.get(ESTIMATION, base.estimation_parameters)),
+    )
+
+
+def run_session(
+    scenario: str,
+    options: RunOptions | None = None,
+    *,
+    sinks: list[Sink] | None = None,
+    params_file: str | Path | None = None,
+    pace: float | None = None,
+    progress: Callable[[float, float], None] | None = None,
+    stop: StopFlag | None = None,
+    context: Context | None = None,
+    inspect: Callable[[Any], None] | None = None,
+) -> SessionResult:
+    """Run ``scenario`` (any accepted spelling, :func:`session_scenario`) lock-step through the
+    real nodes.
+
+    Args:
+        options: how it is simulated (:class:`phri_sim.ros.run_options.RunOptions`: length,
+            seed, fidelity, skin driver, sensor path, sensor fault; None: the defaults).
+        sinks: receive every documented topic (closed at the end, also on errors).
+        params_file: parameter file instead of ``config/<scenario>.yaml``.
+        pace: run at most this many times faster than the wall clock (live viewing).
+        progress: called with (sim time [s], duration [s]) once per simulated second.
+        stop: checked once per simulated second; when set, the run ends early (zero command,
+            clean shutdown) and ``interrupted`` is True.
+        context: an initialised rclpy context to use (tests); else one is made and shut down.
+        inspect: called with the :class:`~phri_sim.ros.runner.ScenarioRun` before it runs (tests).
+    """
+    from phri_sim.ros.runner import ScenarioRun
+
+    values = session_scenario(scenario, params_file)
     own = context is None
     if own:
         context = Context()
@@ -149,9 +145,9 @@ def run_session(
     observer: list[ObserverNode] = []
 
     def make_observer(ctx: Context) -> ObserverNode:
-        node = ObserverNode(ctx, sinks, pace=pace, robot_description=robot_description_urdf())
-        observer.append(node)
-        return node
+        observer.append(ObserverNode(ctx, sinks, pace=pace,
+                                     robot_description=robot_description_urdf()))
+        return observer[0]
 
     def on_progress(t: float, total: float) -> None:
         if stop is not None and stop.requested:
@@ -161,14 +157,10 @@ def run_session(
 
     run = None
     metrics: dict[str, Any] = {}
-    interrupted = False
-    zero = False
+    interrupted = zero = False
     try:
-        with _scenario_parameters(name, sections):
-            run = ScenarioRun(name, context=context, duration=duration, short=short, seed=seed,
-                              recorder=make_observer, progress=on_progress, fault=fault,
-                              fault_time=fault_time, fidelity=fidelity,
-                              skin_driver=skin_driver, sensor_transport=sensor_transport)
+        run = ScenarioRun(values, options, context=context, recorder=make_observer,
+                          progress=on_progress)
         if inspect is not None:
             inspect(run)
         try:

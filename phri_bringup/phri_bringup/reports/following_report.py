@@ -17,13 +17,18 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from phri_sim.evaluation.following_metrics import FollowingSeries, relative_pose
+
+if TYPE_CHECKING:
+    from phri_sim.ros.run_options import RunOptions
+    from phri_sim.scenarios.catalogue import Scenario
 
 Progress = Callable[[float, float], None]
 
@@ -76,22 +81,24 @@ def replot_following(recording: str | Path, path: Path) -> Path:
     return plot_following(path, series, following_summary(series, WALTZ_FORCE))
 
 
-def run_motionless(scenario: str, *, duration: float | None, short: bool, seed: int,
+def run_motionless(scenario: Scenario, options: RunOptions | None = None,
                    progress: Progress | None = None
                    ) -> tuple[dict[str, Any], FollowingSeries | None]:
-    """Metrics and following series of ``scenario`` with a motionless robot (zero commands)."""
+    """Metrics and following series of ``scenario`` run with ``options`` and a motionless robot
+    (the zero-command stub in place of the controller)."""
     import rclpy
     from rclpy.context import Context
     from rclpy.signals import SignalHandlerOptions
 
+    from phri_sim.ros.run_options import RunOptions
     from phri_sim.ros.runner import ScenarioRun
 
     context = Context()
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     run = None
     try:
-        run = ScenarioRun(scenario, context=context, duration=duration, short=short, seed=seed,
-                          controller="stub", progress=progress)
+        run = ScenarioRun(scenario, dataclasses.replace(options or RunOptions(), controller="stub"),
+                          context=context, progress=progress)
         metrics = run.run()
         series = run.metrics.following_series()
     finally:

@@ -46,7 +46,7 @@ from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
 from phri_common.taxels import TaxelCloudEncoder
-from phri_sim.scenarios.catalogue import Q_HOME, SCENARIOS, Script, start_scenario
+from phri_sim.scenarios.catalogue import Q_HOME, SCENARIOS, Scenario, Script, start_scenario
 from phri_sim.world.sensor_faults import DEFAULT_FAULT_TIME, FAULT_KINDS, FaultSpec, SensorFaults
 from phri_sim.world.simulation import ARM_JOINTS, CommandError, SimConfig, Simulation
 from phri_sim.world.skin_driver_loop import SkinLink
@@ -205,9 +205,14 @@ def twist_to_command(msg: Twist) -> np.ndarray:
 class SimBridgeNode(Node):
     """The simulated robot, skins and person behind the hardware topics (module docstring)."""
 
-    def __init__(self, *, node_name: str = "phri_sim", **kwargs: Any) -> None:
+    def __init__(self, *, node_name: str = "phri_sim", scenario: Scenario | None = None,
+                 **kwargs: Any) -> None:
+        """``scenario``: the scenario to play, given as a value in-process (the lock-step
+        runner: any scenario, e.g. one with another parameter set or a lead); the ``scenario``
+        parameter, a name of the catalogue for launch files, must then be '' or its name."""
         super().__init__(node_name, **kwargs)
         self.viewer: Any = None
+        self._given_scenario = scenario
         try:
             self._setup()
         except ValueError:
@@ -218,12 +223,7 @@ class SimBridgeNode(Node):
     def _setup(self) -> None:
         self.values: dict[str, ParamValue] = declare_parameters(self, PARAMS)
         v = self.values
-        scenario_name = str(v["scenario"])
-        if scenario_name and scenario_name not in SCENARIOS:
-            raise ValueError(
-                f"parameter 'scenario' refused value {scenario_name!r}: allowed '' or "
-                f"{', '.join(SCENARIOS)}"
-            )
+        self.scenario = self._scenario(str(v["scenario"]))
         config = SimConfig(
             skin=SkinConfig(softness=float(v["skin_softness"]),
                             noise_std=float(v["skin_noise_std"]),
@@ -245,7 +245,6 @@ class SimBridgeNode(Node):
             periods["ground_truth_rate_hz"] = 1.0 / float(v["ground_truth_rate_hz"])
         _check_divides(float(v["physics_timestep"]), periods)
         self.sim = Simulation(config)
-        self.scenario = SCENARIOS.get(scenario_name)
         self.script: Script | None = None
         if self.scenario is not None:
             self.script = start_scenario(self.sim, self.scenario)
@@ -283,6 +282,23 @@ class SimBridgeNode(Node):
             wall = self.period / float(v["real_time_factor"])
             self.timer = self.create_timer(wall, self._tick)
         self.publish_all(clock=True)
+
+    def _scenario(self, name: str) -> Scenario | None:
+        """The scenario to play: the one given to the constructor, else the catalogue's
+        scenario ``name`` ('' = none: person parked, robot at home); ValueError naming the
+        ``scenario`` parameter otherwise."""
+        given = self._given_scenario
+        if given is not None:
+            if name not in ("", given.name):
+                raise ValueError(f"parameter 'scenario' refused value {name!r}: the node was "
+                                 f"given scenario {given.name!r}")
+            return given
+        if name and name not in SCENARIOS:
+            raise ValueError(
+                f"parameter 'scenario' refused value {name!r}: allowed '' or "
+                f"{', '.join(SCENARIOS)}"
+            )
+        return SCENARIOS.get(name)
 
     def _make_topics(self) -> None:
         """Encoders, publishers and command subscriptions (docs/phri_sim.md, Topics)."""

@@ -1,18 +1,20 @@
 """In-process scenario runner: bridge + contact estimation + controller on one executor, lock-step.
 
-:func:`run_scenario` builds, in one process and one rclpy context, the simulation bridge
-(:class:`~phri_sim.ros.bridge.SimBridgeNode`, ``lockstep: true``), the real
+:class:`ScenarioRun` takes a :class:`~phri_sim.scenarios.catalogue.Scenario` and its
+:class:`~phri_sim.ros.run_options.RunOptions` (both values: a variant is a
+:func:`dataclasses.replace`, nothing is registered anywhere) and builds, in one process and one
+rclpy context, the simulation bridge (:class:`~phri_sim.ros.bridge.SimBridgeNode`, given the
+scenario itself, ``lockstep: true``), the real
 :class:`contact_estimation.node.ContactEstimationNode` and the real
 :class:`wholebody_controller.node.WholeBodyControllerNode` (or, with ``controller="stub"``, a
 stub that publishes zero commands), all with their parameters as ``parameter_overrides`` (the
-scenario's paper values, :mod:`phri_sim.scenarios.catalogue`) and ``use_sim_time``. Each control
-period:
+scenario's, :mod:`phri_sim.scenarios.catalogue`) and ``use_sim_time``. Each control period:
 
 1. the bridge advances the physics one period (5 ms steps) and publishes joint states,
    odometry, the skins (an untouched patch every 10th period only) and the ground truth (to
    subscribers), stamped with the simulation time; with ``sensor_transport="direct"`` (default)
    it hands the taxel arrays, joint states and odometry to the nodes' callbacks instead
-   (:data:`SENSOR_TRANSPORTS`);
+   (:data:`~phri_sim.ros.run_options.SENSOR_TRANSPORTS`);
 2. the executor spins until the controller holds this period's contact states (same stamp), joint
    state and odometry;
 3. the bridge publishes ``/clock``; the controller's sim-time timer fires and its three commands
@@ -21,10 +23,11 @@ period:
 Nothing depends on the wall clock, so a run is deterministic for a seed. A caller can add nodes
 (``recorder``: a factory called with the context, e.g. one that subscribes every topic for an
 MCAP recording) and follow progress (``progress(sim_time, duration)`` once per simulated second).
-``fault`` / ``fault_time`` inject a sensor fault in the bridge
-(:mod:`phri_sim.world.sensor_faults`); a frame or joint state the fault corrupted is not waited for
-in step 2 (downstream may refuse it). The metrics (:mod:`phri_sim.evaluation.metrics`) also read the
-person↔robot contact forces after every physics step (:mod:`phri_sim.evaluation.body_forces`).
+The options' ``fault`` / ``fault_time`` inject a sensor fault in the bridge
+(:mod:`phri_sim.world.sensor_faults`); a frame or joint state the fault corrupted is not waited
+for in step 2 (downstream may refuse it). The metrics (:mod:`phri_sim.evaluation.metrics`) also
+read the person↔robot contact forces after every physics step
+(:mod:`phri_sim.evaluation.body_forces`).
 
 Command line: ``python -m phri_sim.ros.runner waltz [--short] [--seed N] [--out metrics.json]
 [--fault FAULT] [--fault-time T]``.
@@ -39,7 +42,6 @@ import math
 import sys
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -59,63 +61,26 @@ from phri_description.description import SKIN_LINKS
 from phri_sim.evaluation.following_metrics import TEMPO_BARS
 from phri_sim.evaluation.metrics import MetricsRecorder
 from phri_sim.ros.bridge import SimBridgeNode
-from phri_sim.scenarios.catalogue import SCENARIOS, WALTZ_FORCE, WALTZ_LINK, Scenario
+from phri_sim.ros.run_options import FIDELITIES, SENSOR_TRANSPORTS, RunOptions
+from phri_sim.scenarios.catalogue import (
+    SCENARIOS,
+    WALTZ_FORCE,
+    WALTZ_LINK,
+    Scenario,
+    scenario_named,
+)
 from phri_sim.world.sensor_faults import DEFAULT_FAULT_TIME, FAULT_KINDS
+
+__all__ = ["LockStepError", "RunOptions", "ScenarioRun", "run_scenario"]
 
 Recorder = Callable[[Context], Node]
 Progress = Callable[[float, float], None]
 
-SYNC_TIMEOUT = 5.0
-"""Wall time [s] a lock-step phase may wait for messages before the run is declared stuck."""
 RUNNER_INPUT_TIMEOUT = 2.0
 """Input timeouts [s] given to the controller in lock-step: its staleness check uses the wall
 clock, which a loaded machine must not trip (the bridge's sim-time watchdog still applies)."""
-SKIN_RATE_HZ = 100.0
-"""Default taxel rate in lock-step runs: one frame per control period (the controller uses only
-the newest frame); the bridge's own default, used when free-running, is the paper's 500 Hz."""
-
-
-SKIN_IDLE_DECIMATION = 10
-"""In lock-step runs an untouched skin patch is published every 10th period only (bridge
-parameter ``skin_idle_decimation``): its frames carry only sensor noise, far below the contact
-threshold, so the contact state downstream is the same, and two of three patches are idle most of
-the time. Touched patches, and the first frame after a release, go out every period."""
-
-
-PHYSICS_TIMESTEP = 0.005
-"""MuJoCo step of lock-step runs [s]: two steps per control period, every sample of the 100 Hz
-skin on a step (the bridge's own default, 2 ms, serves the 500 Hz skin when free-running). The
-scenario metrics agree with 2 ms runs (docs/phri_sim.md)."""
-
-
-@dataclass(frozen=True)
-class Fidelity:
-    """Time resolution of a lock-step run (``--fidelity``, docs/phri_sim.md).
-
-    Attributes:
-        physics_timestep: MuJoCo step [s].
-        skin_rate_hz: skin sampling rate [Hz] (every sample reaches the skin driver's filter
-            when it is in the loop).
-        taxel_publish_rate_hz: rate of the taxel arrays to contact estimation [Hz] (0 = every
-            sample).
-        skin_idle_decimation: an untouched patch is sampled every N-th time only.
-    """
-
-    physics_timestep: float
-    skin_rate_hz: float
-    taxel_publish_rate_hz: float
-    skin_idle_decimation: int
-
-
-FIDELITIES = {
-    "fast": Fidelity(PHYSICS_TIMESTEP, SKIN_RATE_HZ, 0.0, SKIN_IDLE_DECIMATION),
-    "paper": Fidelity(0.002, paper.SKIN_RATE_HZ, paper.CONTROL_RATE_HZ, 5 * SKIN_IDLE_DECIMATION),
-}
-"""``fast``: 5 ms physics, the skin sampled once per control period (100 Hz). ``paper``: the
-paper's 2 ms physics and 500 Hz skin; contact estimation gets the newest reading once per
-control period (the estimator keeps no state between frames and the controller uses only the
-newest estimate, so the frames in between would change nothing downstream;
-test_skin_loop.py checks it), while the skin driver, when in the loop, filters all of them."""
+SYNC_TIMEOUT = 5.0
+"""Wall time [s] a lock-step phase may wait for messages before the run is declared stuck."""
 
 
 class LockStepError(RuntimeError):
@@ -147,23 +112,8 @@ class ZeroCommandStub(Node):
 FloatArray = NDArray[np.float64]
 
 
-def _given(value: Any, default: Any) -> Any:
-    """``value`` unless it is None."""
-    return default if value is None else value
-
-
-def _params(values: dict[str, Any]) -> list[Parameter]:
+def _params(values: Mapping[str, Any]) -> list[Parameter]:
     return [Parameter(name, value=value) for name, value in values.items()]
-
-
-SENSOR_TRANSPORTS = ("direct", "topics")
-"""How the bridge's sensor data reach the nodes in a lock-step run (``sensor_transport``):
-``direct`` = the bridge hands each taxel array to contact estimation's ``on_frame`` (the composed
-skin node's path, phri_bringup.skin_contact_node) and each joint state and odometry message to
-the controller's ``on_joints`` / ``on_odom``, publishing those topics only to other subscribers
-(a recorder); ``topics`` = all over their topics (serialised, DDS, deserialised). The contact
-states, ``/clock`` and the commands cross DDS either way. Same inputs, same run
-(test_skin_loop.py: identical metrics)."""
 
 
 def _estimation_node(context: Context, scenario: Scenario, subscribe: bool) -> Node:
@@ -178,34 +128,23 @@ def _estimation_node(context: Context, scenario: Scenario, subscribe: bool) -> N
     ])
 
 
-def _controller_node(kind: str, context: Context, scenario: Scenario) -> Node:
+def _controller_node(kind: str, context: Context, scenario: Scenario, direct: bool) -> Node:
     """The whole-body controller node (``kind`` 'node') with the scenario's parameters and the
-    runner's input timeouts, or the zero-command stub ('stub'), on sim time."""
+    runner's input timeouts, taking joint states and odometry from the bridge's hand-off when
+    ``direct``, or the zero-command stub ('stub'), on sim time."""
     sim_time = Parameter("use_sim_time", value=True)
-    if kind == "node":
-        from wholebody_controller.node import WholeBodyControllerNode
-
-        params = {
-            **scenario.controller_parameters,
-            "contact_timeout": RUNNER_INPUT_TIMEOUT,
-            "joint_state_timeout": RUNNER_INPUT_TIMEOUT,
-            "odom_timeout": RUNNER_INPUT_TIMEOUT,
-        }
-        return WholeBodyControllerNode(context=context,
-                                       parameter_overrides=[sim_time, *_params(params)])
     if kind == "stub":
         return ZeroCommandStub(context=context, parameter_overrides=[sim_time])
-    raise ValueError(f"controller must be 'node' or 'stub', got {kind!r}")
+    from wholebody_controller.node import WholeBodyControllerNode
 
-
-def _hand_states_over(bridge: SimBridgeNode, controller: Any) -> None:
-    """The bridge calls the controller's joint-state and odometry callbacks itself; the
-    controller's own subscriptions to those topics are removed (a message would otherwise
-    arrive twice, and the topics go out only to other subscribers)."""
-    for sub in list(controller.subscriptions):
-        if sub.topic_name in ("/joint_states", "/odom"):
-            controller.destroy_subscription(sub)
-    bridge.add_state_listener(controller.on_joints, controller.on_odom)
+    params = {
+        **scenario.controller_parameters,
+        "contact_timeout": RUNNER_INPUT_TIMEOUT,
+        "joint_state_timeout": RUNNER_INPUT_TIMEOUT,
+        "odom_timeout": RUNNER_INPUT_TIMEOUT,
+    }
+    return WholeBodyControllerNode(context=context, direct_state_inputs=direct,
+                                   parameter_overrides=[sim_time, *_params(params)])
 
 
 def _dance_ranges(params: Mapping[str, Any]) -> FloatArray | None:
@@ -238,62 +177,37 @@ def _metrics(scenario: Scenario, sim: Any, fault_time: float | None) -> MetricsR
 
 
 class ScenarioRun:
-    """One lock-step run of a scenario through the real nodes (module docstring)."""
+    """One lock-step run of ``scenario`` with ``options`` through the real nodes (module
+    docstring).
 
-    def __init__(
-        self,
-        name: str,
-        *,
-        context: Context,
-        duration: float | None = None,
-        short: bool = False,
-        seed: int = 0,
-        fidelity: str = "fast",
-        skin_driver: bool = False,
-        skin_rate_hz: float | None = None,
-        skin_idle_decimation: int | None = None,
-        physics_timestep: float | None = None,
-        taxel_publish_rate_hz: float | None = None,
-        controller: str = "node",
-        sensor_transport: str = "direct",
-        viewer: bool = False,
-        recorder: Recorder | None = None,
-        progress: Progress | None = None,
-        fault: str = "",
-        fault_time: float = DEFAULT_FAULT_TIME,
-    ) -> None:
-        if name not in SCENARIOS:
-            raise ValueError(f"unknown scenario {name!r}; known: {', '.join(SCENARIOS)}")
-        self.scenario = sc = SCENARIOS[name]
-        self.duration = duration if duration is not None else (
-            sc.short_duration if short else sc.duration
-        )
+    Args:
+        scenario: what happens (the person's script, the robot's start, the nodes' parameters).
+        options: how it is simulated (:class:`~phri_sim.ros.run_options.RunOptions`; None:
+            the defaults).
+        context: an initialised rclpy context the run's nodes live in.
+        recorder: builds one more node in the context (e.g. a recorder), spun with the others.
+        progress: called with (sim time [s], duration [s]) once per simulated second.
+    """
+
+    def __init__(self, scenario: Scenario, options: RunOptions | None = None, *,
+                 context: Context, recorder: Recorder | None = None,
+                 progress: Progress | None = None) -> None:
+        self.scenario = scenario
+        self.options = options = options or RunOptions()
+        self.duration = options.length(scenario)
         self.context = context
         self.progress = progress
-        if fidelity not in FIDELITIES:
-            raise ValueError(f"fidelity must be one of {', '.join(FIDELITIES)}, got {fidelity!r}")
-        fid = FIDELITIES[fidelity]
-        if sensor_transport not in SENSOR_TRANSPORTS:
-            raise ValueError(f"sensor_transport must be one of {', '.join(SENSOR_TRANSPORTS)}, "
-                             f"got {sensor_transport!r}")
-        self.sensor_transport = sensor_transport
-        self.fidelity, self.skin_driver = fidelity, skin_driver
-        self.bridge = SimBridgeNode(context=context, parameter_overrides=_params({
-            "lockstep": True, "scenario": name, "seed": seed, "viewer": viewer,
-            "skin_rate_hz": _given(skin_rate_hz, fid.skin_rate_hz),
-            "skin_idle_decimation": _given(skin_idle_decimation, fid.skin_idle_decimation),
-            "physics_timestep": _given(physics_timestep, fid.physics_timestep),
-            "taxel_publish_rate_hz": _given(taxel_publish_rate_hz, fid.taxel_publish_rate_hz),
-            "skin_driver": skin_driver, "fault": fault, "fault_time": float(fault_time),
-        }))
-        direct = sensor_transport == "direct"
-        self.estimation = _estimation_node(context, sc, subscribe=not direct)
-        self.controller = _controller_node(controller, context, sc)
+        self.bridge = SimBridgeNode(scenario=scenario, context=context,
+                                    parameter_overrides=_params(options.bridge_parameters(scenario)))
+        direct = options.sensor_transport == "direct"
+        self.is_stub = options.controller == "stub"
+        self.estimation = _estimation_node(context, scenario, subscribe=not direct)
+        self.controller = _controller_node(options.controller, context, scenario, direct)
         if direct:
             self.bridge.add_taxel_listener(self.estimation.on_frame)  # type: ignore[attr-defined]
-            if controller == "node":
-                _hand_states_over(self.bridge, self.controller)
-        self.is_stub = controller == "stub"
+            if not self.is_stub:
+                self.bridge.add_state_listener(self.controller.on_joints,  # type: ignore[attr-defined]
+                                               self.controller.on_odom)  # type: ignore[attr-defined]
         self.probe = Node("phri_sim_runner", context=context)
         # The real controller already decodes every contact state it is sent: the runner reads
         # them there (one DDS hop and three decodes per period less). Only the stub needs the
@@ -309,9 +223,11 @@ class ScenarioRun:
         from rclpy.experimental.events_executor import EventsExecutor
 
         self.executor = EventsExecutor(context=context)
-        for node in (self.bridge, self.estimation, self.controller, self.probe, *self.extra):
+        nodes = (self.bridge, self.estimation, self.controller, self.probe, *self.extra)
+        for node in nodes:
             self.executor.add_node(node)
-        self.metrics = _metrics(sc, self.bridge.sim, float(fault_time) if fault else None)
+        self.metrics = _metrics(scenario, self.bridge.sim,
+                                float(options.fault_time) if options.fault else None)
         self._last_command = np.zeros(15)
         self._fresh_links: set[str] = set(SKIN_LINKS)
         self._skip_joints = False
@@ -377,16 +293,19 @@ class ScenarioRun:
         self._last_command = bridge.sim.watchdog.received(bridge.sim.time)
         self.metrics.sample(bridge.sim, self._last_command, self.estimates)
 
+    def _discovered(self) -> bool:
+        """Every topic the run needs is subscribed: with the direct hand-off the estimator's
+        outputs, with topics its inputs; ``/clock``."""
+        inputs = [f"contacts/{link}" for link in SKIN_LINKS] \
+            if self.options.sensor_transport == "direct" \
+            else [f"skin/{p}/taxels" for p in self.bridge.sim.patches]
+        return all(self.bridge.count_subscribers(t) > 0 for t in [*inputs, "/clock"])
+
     def run(self) -> dict[str, Any]:
         """Run to the end; return the metrics (also the run's settings and timing)."""
         periods = round(self.duration / self.bridge.period)
         # Let discovery settle and the nodes see the initial state before the first tick.
-        # Direct hand-off: the estimator's outputs must be subscribed; topics: its inputs.
-        inputs = [f"contacts/{link}" for link in SKIN_LINKS] if self.sensor_transport == "direct" \
-            else [f"skin/{p}/taxels" for p in self.bridge.sim.patches]
-        self.spin_until(lambda: all(
-            self.bridge.count_subscribers(topic) > 0 for topic in [*inputs, "/clock"]
-        ), "discovery")
+        self.spin_until(self._discovered, "discovery")
         start = time.perf_counter()
         cpu_start = time.process_time()
         next_report = 1.0
@@ -396,7 +315,10 @@ class ScenarioRun:
                 self.progress(self.bridge.sim.time, self.duration)
                 next_report += 1.0
         self.wall_time = time.perf_counter() - start
-        cpu_time = time.process_time() - cpu_start
+        return self._summary(time.process_time() - cpu_start)
+
+    def _summary(self, cpu_time: float) -> dict[str, Any]:
+        """The metrics with the run's settings and timing (CPU time [s] of this process)."""
         faults = self.bridge.faults
         self.metrics.fault_changes = (faults.first_change, faults.changes)
         summary = self.metrics.summary()
@@ -410,13 +332,13 @@ class ScenarioRun:
             "cpu_time": cpu_time,
             "real_time_factor_cpu": self.bridge.sim.time / max(cpu_time, 1e-9),
             "controller": "stub (zero commands)" if self.is_stub else "wholebody_controller",
-            "fidelity": self.fidelity,
-            "skin_driver": self.skin_driver,
-            "sensor_transport": self.sensor_transport,
+            "fidelity": self.options.fidelity,
+            "skin_driver": self.options.skin_driver,
+            "sensor_transport": self.options.sensor_transport,
             "commands_refused": self.bridge.commands_refused,
         })
-        if self.bridge.faults.spec is not None:
-            summary["fault"]["kind"] = self.bridge.faults.spec.kind
+        if faults.spec is not None:
+            summary["fault"]["kind"] = faults.spec.kind
         return summary
 
     def close(self) -> None:
@@ -427,21 +349,26 @@ class ScenarioRun:
 
 
 def run_scenario(
-    name: str,
+    scenario: Scenario | str,
+    options: RunOptions | None = None,
     *,
     context: Context | None = None,
     output: str | Path | None = None,
-    **options: Any,
+    recorder: Recorder | None = None,
+    progress: Progress | None = None,
 ) -> dict[str, Any]:
-    """Run scenario ``name`` (options: see :class:`ScenarioRun`) and return its metrics; write them
-    as JSON to ``output`` if given. Creates (and shuts down) its own context unless one is given.
+    """Run ``scenario`` (a value, or a name of :data:`~phri_sim.scenarios.catalogue.SCENARIOS`)
+    with ``options`` (:class:`ScenarioRun`) and return its metrics; write them as JSON to
+    ``output`` if given. Creates (and shuts down) its own context unless one is given.
     """
+    if isinstance(scenario, str):
+        scenario = scenario_named(scenario)
     own = context is None
     if own:
         context = Context()
         rclpy.init(context=context)
     assert context is not None
-    run = ScenarioRun(name, context=context, **options)
+    run = ScenarioRun(scenario, options, context=context, recorder=recorder, progress=progress)
     try:
         metrics = run.run()
     finally:
@@ -454,9 +381,8 @@ def run_scenario(
     return metrics
 
 
-def main(argv: list[str] | None = None) -> None:
-    """``python -m phri_sim.ros.runner SCENARIO``: run one scenario headless and print its
-    metrics."""
+def _arguments(argv: list[str] | None) -> argparse.Namespace:
+    """The command line of :func:`main`."""
     parser = argparse.ArgumentParser(description=main.__doc__)
     parser.add_argument("scenario", choices=sorted(SCENARIOS))
     parser.add_argument("--short", action="store_true", help="the shortened CI length")
@@ -480,21 +406,26 @@ def main(argv: list[str] | None = None) -> None:
                         help="inject a sensor fault (docs/phri_sim.md, Fault injection)")
     parser.add_argument("--fault-time", type=float, default=DEFAULT_FAULT_TIME,
                         help="sim time the fault starts [s] (default 5)")
-    args = parser.parse_args(argv)
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """``python -m phri_sim.ros.runner SCENARIO``: run one scenario headless and print its
+    metrics."""
+    args = _arguments(argv)
 
     def report(t: float, total: float) -> None:
         if math.isclose(t % 10.0, 0.0, abs_tol=1e-6) or t >= total - 1e-9:
             print(f"  t = {t:5.1f} / {total:.1f} s", file=sys.stderr)
 
-    metrics = run_scenario(
-        args.scenario, output=args.out, duration=args.duration, short=args.short,
-        seed=args.seed, fidelity=args.fidelity, skin_driver=args.skin_driver,
-        skin_rate_hz=args.skin_rate,
+    options = RunOptions(
+        duration=args.duration, short=args.short, seed=args.seed, fidelity=args.fidelity,
+        skin_driver=args.skin_driver, skin_rate_hz=args.skin_rate,
         skin_idle_decimation=args.skin_idle_decimation,
         controller="stub" if args.stub else "node", sensor_transport=args.sensor_transport,
-        viewer=args.viewer, progress=report,
-        fault=args.fault or "", fault_time=args.fault_time,
+        viewer=args.viewer, fault=args.fault or "", fault_time=args.fault_time,
     )
+    metrics = run_scenario(args.scenario, options, output=args.out, progress=report)
     print(json.dumps(metrics, indent=2))
 
 

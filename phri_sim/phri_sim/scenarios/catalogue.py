@@ -40,6 +40,7 @@ value comes from :mod:`phri_common.paper`, the skin links from the robot descrip
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -484,3 +485,22 @@ PARAMETER_SETS: dict[str, dict[str, dict[str, Any]]] = {
 }
 """Selectable controller parameter sets per scenario: ``phri`` (the scenario's own: the paper's
 values with the documented Ω_d deviations) and ``literal`` (the paper's values only)."""
+
+
+def scenario_named(name: str) -> Scenario:
+    """The catalogue's scenario ``name`` (:data:`SCENARIOS`); ValueError naming the known ones
+    otherwise."""
+    try:
+        return SCENARIOS[name]
+    except KeyError:
+        raise ValueError(f"unknown scenario {name!r}; known: {', '.join(SCENARIOS)}") from None
+
+
+def with_parameter_set(scenario: Scenario, name: str) -> Scenario:
+    """``scenario`` with its controller parameter set ``name`` (:data:`PARAMETER_SETS`; ``phri``
+    = the scenario's own); ValueError naming the allowed sets otherwise."""
+    sets = PARAMETER_SETS.get(scenario.name, {"phri": scenario.controller_parameters})
+    if name not in sets:
+        raise ValueError(f"parameter set {name!r} refused for scenario {scenario.name!r}: "
+                         f"allowed {sorted(sets)}")
+    return dataclasses.replace(scenario, controller_parameters=dict(sets[name]))

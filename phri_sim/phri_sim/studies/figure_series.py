@@ -11,9 +11,7 @@ to the numbers of ``docs/paper_vs_phri.md``.
 
 from __future__ import annotations
 
-import contextlib
-import dataclasses
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -21,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from phri_description.description import SKIN_LINKS
+from phri_sim.scenarios.catalogue import scenario_named, with_parameter_set
 
 FloatArray = NDArray[np.float64]
 
@@ -95,33 +94,18 @@ class _Collector:
                             np.array(self.cmd), np.array(self.base), np.array(self.arm), params)
 
 
-@contextlib.contextmanager
-def parameter_set(scenario: str, name: str) -> Iterator[dict[str, Any]]:
-    """Run ``scenario`` with its parameter set ``name`` (:data:`~phri_sim.scenarios.catalogue.
-    PARAMETER_SETS`; ``phri`` = the scenario's own) while the context is open."""
-    from phri_sim.scenarios import catalogue as scenarios
-
-    original = scenarios.SCENARIOS[scenario]
-    sets = scenarios.PARAMETER_SETS.get(scenario, {"phri": original.controller_parameters})
-    if name not in sets:
-        raise ValueError(f"parameter set {name!r} refused for scenario {scenario!r}: allowed "
-                         f"{sorted(sets)}")
-    params = dict(sets[name])
-    scenarios.SCENARIOS[scenario] = dataclasses.replace(original, controller_parameters=params)
-    try:
-        yield params
-    finally:
-        scenarios.SCENARIOS[scenario] = original
-
-
 def record_scenario(name: str, *, context: Any, duration: float | None = None, seed: int = 0,
                     parameters: str = "phri") -> FigureSeries:
-    """Run scenario ``name`` (parameter set ``parameters``) and return its series."""
+    """Run the catalogue's scenario ``name`` with its parameter set ``parameters``
+    (:func:`~phri_sim.scenarios.catalogue.with_parameter_set`) for ``duration`` [s] (None: its
+    length) and return its series."""
+    from phri_sim.ros.run_options import RunOptions
     from phri_sim.ros.runner import ScenarioRun
 
     collector = _Collector()
-    with parameter_set(name, parameters) as params:
-        run = ScenarioRun(name, context=context, duration=duration, seed=seed)
+    scenario = with_parameter_set(scenario_named(name), parameters)
+    params = scenario.controller_parameters
+    run = ScenarioRun(scenario, RunOptions(duration=duration, seed=seed), context=context)
     try:
         controller = run.controller.controller
         step = controller.step

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from phri_sim.evaluation.following_metrics import Bars
+from phri_sim.ros.run_options import RunOptions
 from phri_sim.ros.runner import run_scenario
 from phri_sim.studies.leads import (
     FULL_TIMING,
@@ -27,7 +28,6 @@ from phri_sim.studies.leads import (
     Profile,
     followability_map,
     lead_scenario,
-    registered,
 )
 
 
@@ -51,9 +51,8 @@ def run_lead(lead: Lead, profile: Profile, *, controller: str = "node",
              seed: int = 0, base: str = "waltz") -> dict[str, Any]:
     """Metrics of one lead (``controller`` 'node' = the whole-body controller, 'stub' = a
     motionless robot) from the hold of scenario ``base`` (its controller parameters)."""
-    sc = lead_scenario(lead, profile, base)
-    with registered(sc):
-        return run_scenario(sc.name, duration=profile.duration, seed=seed, controller=controller)
+    return run_scenario(lead_scenario(lead, profile, base),
+                        RunOptions(duration=profile.duration, seed=seed, controller=controller))
 
 
 def run_map(form: MapForm = FULL_FORM, bars: Bars | None = None, *, controller: str = "node",

@@ -30,10 +30,9 @@ search takes the function that runs one lead, so it is tested without the simula
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import math
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -204,18 +203,6 @@ def lead_scenario(lead: Lead, profile: Profile, base: str = "waltz") -> Scenario
         sc, name=lead.name, description=f"followability lead: {lead}",
         duration=profile.duration, short_duration=profile.duration,
         make_script=lead_script(lead, profile, sc), metrics="waltz")
-
-
-@contextlib.contextmanager
-def registered(scenario: Scenario) -> Iterator[None]:
-    """Make ``scenario`` known to the runner and the bridge (``SCENARIOS``) for a while."""
-    if scenario.name in SCENARIOS:
-        raise ValueError(f"scenario name {scenario.name!r} is taken")
-    SCENARIOS[scenario.name] = scenario
-    try:
-        yield
-    finally:
-        del SCENARIOS[scenario.name]
 
 
 def lead_passes(metrics: dict[str, Any], bars: Bars) -> dict[str, bool]:
