@@ -58,7 +58,7 @@ def _phases(run: Any) -> dict[str, list[float]]:
     """Wrap the run's lock-step phases with timers (same calls as ScenarioRun.step)."""
     phases: dict[str, list[float]] = {"advance": [], "sensors": [], "commands": []}
     bridge = run.bridge
-    advance, spin_until = bridge.advance, run.spin_until
+    advance, wait_for = bridge.advance, run.wait_for
     last = [0.0]
 
     def timed_advance(*args: Any, **kwargs: Any) -> None:
@@ -67,14 +67,14 @@ def _phases(run: Any) -> dict[str, list[float]]:
         last[0] = time.perf_counter()
         phases["advance"].append(last[0] - t0)
 
-    def timed_spin(condition: Any, what: str) -> None:
+    def timed_wait(missing: Any, what: str) -> None:
         t0 = time.perf_counter()
-        spin_until(condition, what)
+        wait_for(missing, what)
         key = "sensors" if what == "sensor data" else "commands"
         phases[key].append(time.perf_counter() - t0)
 
     bridge.advance = timed_advance
-    run.spin_until = timed_spin
+    run.wait_for = timed_wait
     return phases
 
 

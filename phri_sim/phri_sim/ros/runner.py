@@ -20,7 +20,9 @@ scenario's, :mod:`phri_sim.scenarios.catalogue`) and ``use_sim_time``. Each cont
 3. the bridge publishes ``/clock``; the controller's sim-time timer fires and its three commands
    reach the bridge, which applies them during the next period.
 
-Nothing depends on the wall clock, so a run is deterministic for a seed. A caller can add nodes
+Steps 2 and 3 wait on what this period expects, not on the wall clock
+(:mod:`phri_sim.ros.lockstep`): a run is deterministic for a seed and the same on a busy host;
+only a dead node ends it (:class:`~phri_sim.ros.lockstep.LockStepError`). A caller can add nodes
 (``recorder``: a factory called with the context, e.g. one that subscribes every topic for an
 MCAP recording) and follow progress (``progress(sim_time, duration)`` once per simulated second).
 The options' ``fault`` / ``fault_time`` inject a sensor fault in the bridge
@@ -60,7 +62,8 @@ from phri_common.records import ContactState
 from phri_description.description import SKIN_LINKS
 from phri_sim.evaluation.following_metrics import TEMPO_BARS
 from phri_sim.evaluation.metrics import MetricsRecorder
-from phri_sim.ros.bridge import SimBridgeNode
+from phri_sim.ros.bridge import ARM_TOPICS, SimBridgeNode
+from phri_sim.ros.lockstep import LockStep, LockStepError, Missing
 from phri_sim.ros.run_options import FIDELITIES, SENSOR_TRANSPORTS, RunOptions
 from phri_sim.scenarios.catalogue import (
     SCENARIOS,
@@ -79,12 +82,8 @@ Progress = Callable[[float, float], None]
 RUNNER_INPUT_TIMEOUT = 2.0
 """Input timeouts [s] given to the controller in lock-step: its staleness check uses the wall
 clock, which a loaded machine must not trip (the bridge's sim-time watchdog still applies)."""
-SYNC_TIMEOUT = 5.0
-"""Wall time [s] a lock-step phase may wait for messages before the run is declared stuck."""
-
-
-class LockStepError(RuntimeError):
-    """A lock-step phase did not complete (a node stopped answering)."""
+COMMAND_TOPICS = {"base": "/cmd_vel", **ARM_TOPICS}
+"""The bridge's command channels and their topics (for what a phase still waits for)."""
 
 
 class ZeroCommandStub(Node):
@@ -226,6 +225,9 @@ class ScenarioRun:
         nodes = (self.bridge, self.estimation, self.controller, self.probe, *self.extra)
         for node in nodes:
             self.executor.add_node(node)
+        self.lockstep = LockStep(self.executor, context, nodes,
+                                 warn=self.probe.get_logger().warning)
+        """Waits for each phase (:mod:`phri_sim.ros.lockstep`)."""
         self.metrics = _metrics(scenario, self.bridge.sim,
                                 float(options.fault_time) if options.fault else None)
         self._last_command = np.zeros(15)
@@ -244,28 +246,27 @@ class ScenarioRun:
         return self._own_estimates if contacts is None else contacts
 
     # -- lock-step phases -----------------------------------------------------------------------
-    def spin_until(self, condition: Callable[[], bool], what: str) -> None:
-        """Spin the run's executor until ``condition()`` holds; :class:`LockStepError` naming
-        ``what`` after :data:`SYNC_TIMEOUT` [s] of wall time (public so benchmarks can time it)."""
-        deadline = time.monotonic() + SYNC_TIMEOUT
-        while not condition():
-            if time.monotonic() > deadline:
-                raise LockStepError(f"lock-step: timed out waiting for {what} at sim time "
-                                    f"{self.bridge.sim.time:.3f} s")
-            self.executor.spin_once(timeout_sec=0.05)
+    def wait_for(self, missing: Missing, what: str) -> None:
+        """Spin the run's executor until ``missing()`` is empty (:meth:`LockStep.wait
+        <phri_sim.ros.lockstep.LockStep.wait>`; public so benchmarks can time it)."""
+        self.lockstep.wait(missing, what, self.bridge.sim.time)
 
-    def _inputs_ready(self, stamp_ns: int, marks: tuple[Any, ...]) -> bool:
-        """The controller holds this period's contacts, joint state and odometry."""
+    def _missing_inputs(self, stamp_ns: int, marks: tuple[Any, ...]) -> list[str]:
+        """What the controller does not hold yet of this period's contacts, joint state and
+        odometry (topic names; empty when it holds them all)."""
         estimates = self.estimates
+        out = []
         for link in SKIN_LINKS:
             state = estimates.get(link)
             if state is None or (link in self._fresh_links and state.stamp_ns != stamp_ns):
-                return False
+                out.append(f"contacts/{link}")
         ctrl = self.controller
         if hasattr(ctrl, "odom_time") and hasattr(ctrl, "arm_time"):
-            joints = self._skip_joints or np.min(ctrl.arm_time) != marks[1]
-            return bool(ctrl.odom_time != marks[0] and joints)
-        return True
+            if not (self._skip_joints or np.min(ctrl.arm_time) != marks[1]):
+                out.append("/joint_states")
+            if ctrl.odom_time == marks[0]:
+                out.append("/odom")
+        return out
 
     def _marks(self) -> tuple[Any, ...]:
         ctrl = self.controller
@@ -283,29 +284,28 @@ class ScenarioRun:
         faulted = bridge.faults.changed_at(bridge.fault_clock)
         self._fresh_links = {patch_link[p] for p in bridge.published_patches if p not in faulted}
         self._skip_joints = "joint_states" in faulted
-        self.spin_until(lambda: self._inputs_ready(stamp, marks), "sensor data")
+        self.wait_for(lambda: self._missing_inputs(stamp, marks), "sensor data")
         before = dict(bridge.commands_received)
         bridge.publish_clock()
-        self.spin_until(
-            lambda: all(bridge.commands_received[k] > before[k] for k in before),
-            "controller commands",
-        )
+        self.wait_for(lambda: [COMMAND_TOPICS[k] for k in before
+                               if bridge.commands_received[k] <= before[k]],
+                      "controller commands")
         self._last_command = bridge.sim.watchdog.received(bridge.sim.time)
         self.metrics.sample(bridge.sim, self._last_command, self.estimates)
 
-    def _discovered(self) -> bool:
-        """Every topic the run needs is subscribed: with the direct hand-off the estimator's
-        outputs, with topics its inputs; ``/clock``."""
+    def _undiscovered(self) -> list[str]:
+        """The topics the run needs that nobody subscribes to yet: with the direct hand-off the
+        estimator's outputs, with topics its inputs; ``/clock``."""
         inputs = [f"contacts/{link}" for link in SKIN_LINKS] \
             if self.options.sensor_transport == "direct" \
             else [f"skin/{p}/taxels" for p in self.bridge.sim.patches]
-        return all(self.bridge.count_subscribers(t) > 0 for t in [*inputs, "/clock"])
+        return [t for t in [*inputs, "/clock"] if self.bridge.count_subscribers(t) == 0]
 
     def run(self) -> dict[str, Any]:
         """Run to the end; return the metrics (also the run's settings and timing)."""
         periods = round(self.duration / self.bridge.period)
         # Let discovery settle and the nodes see the initial state before the first tick.
-        self.spin_until(self._discovered, "discovery")
+        self.wait_for(self._undiscovered, "discovery")
         start = time.perf_counter()
         cpu_start = time.process_time()
         next_report = 1.0
