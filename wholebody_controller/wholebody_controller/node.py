@@ -130,7 +130,9 @@ SCALING_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5,
 best-effort reader matches)."""
 
 class WholeBodyControllerNode(Node):
-    """The whole-body controller node."""
+    """The whole-body controller node. ``direct_state_inputs=True``: its owner calls
+    :meth:`on_joints` / :meth:`on_odom` itself (phri_sim's lock-step runner), so the node
+    subscribes neither ``/joint_states`` nor ``/odom``."""
 
     def __init__(
         self,
@@ -141,11 +143,8 @@ class WholeBodyControllerNode(Node):
         direct_state_inputs: bool = False,
         **kwargs: Any,
     ) -> None:
-        """``clock_ns`` replaces the node clock [ns] (tests drive the cycle by hand with it);
-        ``direct_state_inputs``: the owner calls :meth:`on_joints` / :meth:`on_odom` itself
-        (phri_sim's lock-step runner) and ``/joint_states``, ``/odom`` are not subscribed."""
+        """``clock_ns`` replaces the node clock [ns] (tests drive the cycle by hand with it)."""
         super().__init__(node_name, **kwargs)
-        self.direct_state_inputs = direct_state_inputs
         # Held by every control cycle and by whatever runs in the executor's thread beside it.
         self.cycle_lock = threading.RLock()
         self.fatal_error: BaseException | None = None
@@ -193,7 +192,7 @@ class WholeBodyControllerNode(Node):
         self.qp_failures = 0
         self.zero_cycles = 0
         self.good_cycles = 0
-        self._create_interfaces()
+        self._create_interfaces(direct_state_inputs)
         self._start_loop()
 
     def _node_clock_ns(self) -> Callable[[], int]:
@@ -215,8 +214,9 @@ class WholeBodyControllerNode(Node):
             self.get_logger().warning(f"thread_priority: {self.loop.priority_error}; the "
                                       "control thread runs under the normal scheduler")
 
-    def _create_interfaces(self) -> None:
-        """Publishers, subscriptions, services and timers (see the module docstring)."""
+    def _create_interfaces(self, direct_state_inputs: bool) -> None:
+        """Publishers, subscriptions (no state topics for ``direct_state_inputs``), services and
+        timers (see the module docstring)."""
         # Commands are published as serialized bytes (phri_common.cdr): same messages, without
         # building three message objects per cycle.
         self._arm_encoders = (Float64ArrayEncoder(",".join(self.left_joints), 6),
@@ -239,7 +239,7 @@ class WholeBodyControllerNode(Node):
              self._contact_handler(link), CONTACT_QOS)
             for link in self.links
         ]
-        if not self.direct_state_inputs:
+        if not direct_state_inputs:
             inputs += [(JointState, "/joint_states", self.on_joints_bytes, qos_profile_sensor_data),
                        (Odometry, "/odom", self.on_odom_bytes, qos_profile_sensor_data)]
         inputs += [(Float64, f"{arm}/{SPEED_SCALING_TOPIC}", self._scaling_handler(arm),
