@@ -80,6 +80,52 @@ def _parser() -> argparse.ArgumentParser:
                      formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
+    _sim_arguments(sub)
+
+    plot = sub.add_parser("plot", help="figure panels (PNG) and key numbers from a recording")
+    plot.add_argument("run", help="run directory, recording directory or .mcap file")
+    plot.add_argument("--out", default=None, help="directory for the PNGs (default RUN/plots)")
+    plot.add_argument("--scenario", default=None, help="waltz adds the waltz panels "
+                      "(default: read from RUN/metrics.json, else guessed)")
+
+    video = sub.add_parser("video", help="MP4 of a recording, rendered offscreen")
+    video.add_argument("run", help="run directory, recording directory or .mcap file")
+    video.add_argument("--out", default=None, help="MP4 path (default RUN/video.mp4)")
+    video.add_argument("--fps", type=float, default=25.0)
+    video.add_argument("--size", default="1024x576", help="WIDTHxHEIGHT")
+
+    params = sub.add_parser("params", help="check or regenerate config/*.yaml")
+    group = params.add_mutually_exclusive_group()
+    group.add_argument("--check", action="store_true", help="(default) report problems")
+    group.add_argument("--write", action="store_true",
+                       help="rewrite from phri_sim.scenarios.catalogue")
+
+    graph = sub.add_parser("graph", help="print the node graph the launch files start")
+    graph.add_argument("which", choices=("sim", "real"), nargs="?", default="sim")
+    graph.add_argument("--scenario", default="waltz")
+    graph.add_argument("--skin-process", choices=("composed", "separate"), default="composed",
+                       help="real: skin drivers and contact estimation in one process "
+                            "(real.launch.py's skin_process)")
+    graph.add_argument("--arm-driver", choices=("phri_rtde", "ur_robot_driver"),
+                       default="phri_rtde", help="real: what drives the UR arms "
+                       "(real.launch.py's arm_driver; ur_robot_driver: no phri arm bridge)")
+
+    report = sub.add_parser("paper-report", help="run centring, sliding and whole_body; draw "
+                            "Figs 6–8 panel by panel; write the paper-vs-phri page")
+    report.add_argument("--out", default="runs/paper", help="directory for the figure pages "
+                        "(default runs/paper)")
+    report.add_argument("--seed", type=int, default=0, help="skin noise seed (default 0)")
+    report.add_argument("--page", default=None, help="markdown page to write (default "
+                        "OUT/paper_vs_phri.md; the repository's is docs/paper_vs_phri.md)")
+    _domain_argument(report)
+
+    layouts = sub.add_parser("layouts", help="write nominal skin layout files (real robot)")
+    layouts.add_argument("directory")
+    return parser
+
+
+def _sim_arguments(sub: Any) -> None:
+    """The ``phri sim`` sub-command (and, beside it, ``phri followability``)."""
     sim = sub.add_parser("sim", help="run a scenario through every node, lock-step, headless")
     sim.add_argument("--scenario", default="waltz", help=SCENARIO_HELP)
     sim.add_argument("--out", default=None,
@@ -125,47 +171,6 @@ def _parser() -> argparse.ArgumentParser:
                      help="pace the run to FACTOR × real time (default 1 with --foxglove, "
                           "else as fast as possible)")
     _following_arguments(sub, sim)
-
-    plot = sub.add_parser("plot", help="figure panels (PNG) and key numbers from a recording")
-    plot.add_argument("run", help="run directory, recording directory or .mcap file")
-    plot.add_argument("--out", default=None, help="directory for the PNGs (default RUN/plots)")
-    plot.add_argument("--scenario", default=None, help="waltz adds the waltz panels "
-                      "(default: read from RUN/metrics.json, else guessed)")
-
-    video = sub.add_parser("video", help="MP4 of a recording, rendered offscreen")
-    video.add_argument("run", help="run directory, recording directory or .mcap file")
-    video.add_argument("--out", default=None, help="MP4 path (default RUN/video.mp4)")
-    video.add_argument("--fps", type=float, default=25.0)
-    video.add_argument("--size", default="1024x576", help="WIDTHxHEIGHT")
-
-    params = sub.add_parser("params", help="check or regenerate config/*.yaml")
-    group = params.add_mutually_exclusive_group()
-    group.add_argument("--check", action="store_true", help="(default) report problems")
-    group.add_argument("--write", action="store_true",
-                       help="rewrite from phri_sim.scenarios.catalogue")
-
-    graph = sub.add_parser("graph", help="print the node graph the launch files start")
-    graph.add_argument("which", choices=("sim", "real"), nargs="?", default="sim")
-    graph.add_argument("--scenario", default="waltz")
-    graph.add_argument("--skin-process", choices=("composed", "separate"), default="composed",
-                       help="real: skin drivers and contact estimation in one process "
-                            "(real.launch.py's skin_process)")
-    graph.add_argument("--arm-driver", choices=("phri_rtde", "ur_robot_driver"),
-                       default="phri_rtde", help="real: what drives the UR arms "
-                       "(real.launch.py's arm_driver; ur_robot_driver: no phri arm bridge)")
-
-    report = sub.add_parser("paper-report", help="run centring, sliding and whole_body; draw "
-                            "Figs 6–8 panel by panel; write the paper-vs-phri page")
-    report.add_argument("--out", default="runs/paper", help="directory for the figure pages "
-                        "(default runs/paper)")
-    report.add_argument("--seed", type=int, default=0, help="skin noise seed (default 0)")
-    report.add_argument("--page", default=None, help="markdown page to write (default "
-                        "OUT/paper_vs_phri.md; the repository's is docs/paper_vs_phri.md)")
-    _domain_argument(report)
-
-    layouts = sub.add_parser("layouts", help="write nominal skin layout files (real robot)")
-    layouts.add_argument("directory")
-    return parser
 
 
 def _following_arguments(sub: Any, sim: argparse.ArgumentParser) -> None:
@@ -273,8 +278,23 @@ def cmd_sim(args: argparse.Namespace) -> int:
     _report_safety(metrics)
     metrics["zero_velocity_at_exit"] = result.zero_at_exit
     metrics["seed"] = args.seed
-    summary: dict[str, Any] = {"run_wall_time": run_wall}
     _following(args, name, metrics, runs, out)
+    metrics["bringup"] = {"run_wall_time": run_wall,
+                          **_plots_and_video(args, name, record_dir, out)}
+    (out / "metrics.json").write_text(json.dumps(metrics, indent=2, allow_nan=True) + "\n",
+                                      encoding="utf-8")
+    total = time.perf_counter() - start
+    _log(f"metrics: {out / 'metrics.json'}; total wall time {total:.0f} s")
+    return 0
+
+
+def _plots_and_video(args: argparse.Namespace, name: str, record_dir: Path | None, out: Path
+                     ) -> dict[str, Any]:
+    """The figure panels and the MP4 from the recording (unless ``--no-plots`` / ``--no-video``
+    or ``--no-record``); returns the panels' key numbers as ``{"plots": …}``."""
+    from phri_bringup.graph.nodes import scenario_file
+
+    summary: dict[str, Any] = {}
     if record_dir is not None and not args.no_plots:
         from phri_bringup.reports.plots import make_plots
 
@@ -290,12 +310,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
             _log(f"video: {path} ({time.perf_counter() - t_video:.0f} s to render)")
         except VideoUnavailable as err:
             _log(f"video skipped: {err}")
-    metrics["bringup"] = summary
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=2, allow_nan=True) + "\n",
-                                      encoding="utf-8")
-    total = time.perf_counter() - start
-    _log(f"metrics: {out / 'metrics.json'}; total wall time {total:.0f} s")
-    return 0
+    return summary
 
 
 def _run_options(args: argparse.Namespace) -> Any:

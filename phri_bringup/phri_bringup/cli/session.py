@@ -141,26 +141,13 @@ def run_session(
         context = Context()
         rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
     assert context is not None
-    sinks = sinks or []
-    observer: list[ObserverNode] = []
-
-    def make_observer(ctx: Context) -> ObserverNode:
-        observer.append(ObserverNode(ctx, sinks, pace=pace,
-                                     robot_description=robot_description_urdf()))
-        return observer[0]
-
-    def on_progress(t: float, total: float) -> None:
-        if stop is not None and stop.requested:
-            raise Interrupted(f"stopped at sim time {t:.1f} s")
-        if progress is not None:
-            progress(t, total)
-
+    hooks = _Hooks(sinks or [], pace, progress, stop)
     run = None
     metrics: dict[str, Any] = {}
     interrupted = zero = False
     try:
-        run = ScenarioRun(values, options, context=context, recorder=make_observer,
-                          progress=on_progress)
+        run = ScenarioRun(values, options, context=context, recorder=hooks.make_observer,
+                          progress=hooks.on_progress)
         if inspect is not None:
             inspect(run)
         try:
@@ -169,13 +156,36 @@ def run_session(
             interrupted = True
     finally:
         if run is not None:
-            zero = _shutdown(run, observer[0] if observer else None)
-        for sink in sinks:
+            zero = _shutdown(run, hooks.observer)
+        for sink in hooks.sinks:
             sink.close()
         if own:
             context.try_shutdown()
     return SessionResult(metrics, zero, interrupted,
-                         dict(observer[0].message_counts) if observer else {})
+                         dict(hooks.observer.message_counts) if hooks.observer else {})
+
+
+class _Hooks:
+    """What a session adds to its run: the observer node (feeding ``sinks``, paced to ``pace``
+    × real time) and the progress callback, which ends the run on a stop request."""
+
+    def __init__(self, sinks: list[Sink], pace: float | None,
+                 progress: Callable[[float, float], None] | None, stop: StopFlag | None) -> None:
+        self.sinks, self.pace, self.progress, self.stop = sinks, pace, progress, stop
+        self.observer: ObserverNode | None = None
+
+    def make_observer(self, ctx: Context) -> ObserverNode:
+        """The run's observer node (the runner's ``recorder`` factory)."""
+        self.observer = ObserverNode(ctx, self.sinks, pace=self.pace,
+                                     robot_description=robot_description_urdf())
+        return self.observer
+
+    def on_progress(self, t: float, total: float) -> None:
+        """Once per simulated second (sim time ``t`` of ``total`` [s])."""
+        if self.stop is not None and self.stop.requested:
+            raise Interrupted(f"stopped at sim time {t:.1f} s")
+        if self.progress is not None:
+            self.progress(t, total)
 
 
 def _shutdown(run: Any, observer: ObserverNode | None) -> bool:

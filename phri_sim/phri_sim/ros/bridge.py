@@ -141,6 +141,21 @@ def _publish_steps(rate_hz: float, skin_every: int, dt: float) -> int:
     return steps
 
 
+def sim_config(values: dict[str, ParamValue]) -> SimConfig:
+    """The simulation's configuration from the bridge's parameter values (skin model, command
+    timeout [s], seed, physics step [s])."""
+    return SimConfig(
+        skin=SkinConfig(softness=float(values["skin_softness"]),
+                        noise_std=float(values["skin_noise_std"]),
+                        gain_error_std=float(values["skin_gain_error_std"]),
+                        offset_std=float(values["skin_offset_std"]),
+                        dead_taxels=int(values["skin_dead_taxels"])),
+        command_timeout=float(values["command_timeout"]),
+        seed=int(values["seed"]),
+        timestep=float(values["physics_timestep"]),
+    )
+
+
 def sensor_faults(values: dict[str, ParamValue], joint_names: tuple[str, ...]) -> SensorFaults:
     """The sensor faults of the ``fault`` and ``fault_time`` parameters; ValueError naming the
     parameter for an unknown fault."""
@@ -224,16 +239,7 @@ class SimBridgeNode(Node):
         self.values: dict[str, ParamValue] = declare_parameters(self, PARAMS)
         v = self.values
         self.scenario = self._scenario(str(v["scenario"]))
-        config = SimConfig(
-            skin=SkinConfig(softness=float(v["skin_softness"]),
-                            noise_std=float(v["skin_noise_std"]),
-                            gain_error_std=float(v["skin_gain_error_std"]),
-                            offset_std=float(v["skin_offset_std"]),
-                            dead_taxels=int(v["skin_dead_taxels"])),
-            command_timeout=float(v["command_timeout"]),
-            seed=int(v["seed"]),
-            timestep=float(v["physics_timestep"]),
-        )
+        config = sim_config(v)
         periods = {
             "control_period": float(v["control_period"]),
             "skin_rate_hz": 1.0 / float(v["skin_rate_hz"]),
