@@ -5,8 +5,9 @@ start; 0° = forward, +x; 90° = to the robot's left, +y) and speed v [m/s], or 
 at ω [rad/s] (+ = left, counter-clockwise seen from above). :func:`lead_scenario` builds a
 :class:`~phri_sim.scenarios.catalogue.Scenario` from the ``waltz`` scenario (its robot start,
 controller and estimation parameters, settling, and its partner's hold at t = 0: every part's t = 0
-target, so a changed partner or hold in ``scenarios.py`` is picked up here) in which every part's
-target moves rigidly:
+target, so a changed partner or hold in ``scenarios/catalogue.py`` is picked up here) in which
+every part's target moves rigidly (the lead is a scenario value of its own: nothing registers
+it):
 
 * translation: p(t) = p₀ + v·s(t)·(cos h, sin h, 0), heading unchanged;
 * turn: the hold rotates by θ(t) = ω·s(t) about the vertical through the couple's centre c (the

@@ -5,7 +5,7 @@ towards its target; the target position moves on with its scripted velocity from
 
     p_target(t) = p_set + v_target (t − t_set)                                     [m]
     F = K_lin (p_target(t) − p) + D_lin (v_target − v)                              [N]
-    F_xy ← F_xy · min(1, F_max / ‖F_xy‖)        (a person who stops pushing, person.py)
+    F_xy ← F_xy · min(1, F_max / ‖F_xy‖)        (a person who stops pushing, person_body.py)
     τ = R (K_rot subQuat(q_target, q) − D_rot ω_body)                             [N·m]
 
 (``mju_subQuat`` gives the body-frame rotation vector from the current to the target orientation;
@@ -136,7 +136,7 @@ class SimPerson:
             self._d_lin_col * (vel - qvel[self._lin_dofs]))
         for i, fx in enumerate(force[:, 0].tolist()):
             push = math.hypot(fx, force[i, 1])
-            if push > self._max_push[i]:  # person.py, "A person who stops pushing"
+            if push > self._max_push[i]:  # person_body.py, "A person who stops pushing"
                 force[i, 0:2] *= self._max_push[i] / push
         xfrc[bodies, 0:3] = force
         torque_body = self._k_rot_col * self._rot_errors(xquat) - (
