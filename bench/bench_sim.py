@@ -32,8 +32,8 @@ import numpy as np
 
 from phri_common.procstat import load_line
 from phri_common.testing import isolate_ros_environment
-from phri_sim.scenarios import SCENARIOS, start_scenario
-from phri_sim.sim import Simulation
+from phri_sim.scenarios.catalogue import SCENARIOS, start_scenario
+from phri_sim.world.simulation import Simulation
 
 
 def step_times(skins: bool, n: int = 2000) -> np.ndarray:
@@ -58,7 +58,7 @@ def _phases(run: Any) -> dict[str, list[float]]:
     """Wrap the run's lock-step phases with timers (same calls as ScenarioRun.step)."""
     phases: dict[str, list[float]] = {"advance": [], "sensors": [], "commands": []}
     bridge = run.bridge
-    advance, spin_until = bridge.advance, run.spin_until
+    advance, wait_for = bridge.advance, run.wait_for
     last = [0.0]
 
     def timed_advance(*args: Any, **kwargs: Any) -> None:
@@ -67,14 +67,14 @@ def _phases(run: Any) -> dict[str, list[float]]:
         last[0] = time.perf_counter()
         phases["advance"].append(last[0] - t0)
 
-    def timed_spin(condition: Any, what: str) -> None:
+    def timed_wait(missing: Any, what: str) -> None:
         t0 = time.perf_counter()
-        spin_until(condition, what)
+        wait_for(missing, what)
         key = "sensors" if what == "sensor data" else "commands"
         phases[key].append(time.perf_counter() - t0)
 
     bridge.advance = timed_advance
-    run.spin_until = timed_spin
+    run.wait_for = timed_wait
     return phases
 
 
@@ -84,7 +84,7 @@ SETTINGS: dict[str, dict[str, Any]] = {
     "paper+driver": {"fidelity": "paper", "skin_driver": True},
     "paper+topics": {"fidelity": "paper", "sensor_transport": "topics"},
 }
-"""Benchmark setting → ScenarioRun options."""
+"""Benchmark setting → RunOptions fields."""
 
 
 def scenario_speed(name: str, seconds: float | None, setting: str = "fast",
@@ -93,11 +93,13 @@ def scenario_speed(name: str, seconds: float | None, setting: str = "fast",
     import rclpy
     from rclpy.context import Context
 
-    from phri_sim.runner import ScenarioRun
+    from phri_sim.ros.run_options import RunOptions
+    from phri_sim.ros.runner import ScenarioRun
 
     context = Context()
     rclpy.init(context=context)
-    run = ScenarioRun(name, context=context, duration=seconds, seed=1, **SETTINGS[setting])
+    run = ScenarioRun(SCENARIOS[name], RunOptions(duration=seconds, seed=1, **SETTINGS[setting]),
+                      context=context)
     phases = _phases(run)
     try:
         metrics = run.run()

@@ -8,7 +8,7 @@ robot_state_publisher, and optionally rviz.
         [base_cmd_topic:=/base_driver/cmd_vel] [arm_driver:=phri_rtde|ur_robot_driver]
         [rviz:=true]
 
-The nodes come from ``phri_bringup.graph.real_graph`` (the one description of the graph).
+The nodes come from ``phri_bringup.graph.nodes.real_graph`` (the one description of the graph).
 Parameters: phri_hardware's ``ur_arms.yaml``, ``base_guard.yaml`` and ``skin_real.yaml`` (from
 its share directory, or from ``hardware_config:=DIR`` holding your edited copies), then
 ``config/real.yaml`` (docs/bringup.md). The skin ports and layouts come from ``skin_real.yaml``
@@ -31,7 +31,7 @@ from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
-from phri_bringup.graph import (
+from phri_bringup.graph.nodes import (
     ARM_DRIVERS,
     DEFAULT_ARM_DRIVER,
     DEFAULT_BASE_COMMAND_TOPIC,
@@ -42,7 +42,7 @@ from phri_bringup.graph import (
     real_graph,
     robot_description_urdf,
 )
-from phri_bringup.preflight import ament_executable_exists, launch_problems, preflight_action
+from phri_bringup.graph.preflight import ament_executable_exists, launch_problems, preflight_action
 
 
 def _nodes(context):

@@ -3,7 +3,7 @@ controller, robot_state_publisher, and optionally rviz (on the simulation's cloc
 
     ros2 launch phri_bringup sim.launch.py scenario:=waltz [seed:=0] [rviz:=true]
 
-The nodes, executables and parameter files come from ``phri_bringup.graph.sim_graph`` — the
+The nodes, executables and parameter files come from ``phri_bringup.graph.nodes.sim_graph`` — the
 same description ``phri sim`` runs in one process — so the two cannot drift. Parameters:
 ``config/<scenario>.yaml`` (docs/bringup.md). Every executable is looked up before any process
 starts: a missing package (e.g. robot_state_publisher) stops the launch with nothing running.
@@ -14,8 +14,8 @@ from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
-from phri_bringup.graph import launch_node_kwargs, robot_description_urdf, sim_graph
-from phri_bringup.preflight import ament_executable_exists, launch_problems, preflight_action
+from phri_bringup.graph.nodes import launch_node_kwargs, robot_description_urdf, sim_graph
+from phri_bringup.graph.preflight import ament_executable_exists, launch_problems, preflight_action
 
 
 def _nodes(context):

@@ -12,9 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from phri_bringup.cli import main
+from phri_bringup.cli.main import main
 
-PHRI = [sys.executable, "-m", "phri_bringup.cli"]
+PHRI = [sys.executable, "-m", "phri_bringup.cli.main"]
 
 
 def _session_processes(sid: int) -> list[int]:
@@ -93,8 +93,8 @@ def test_layouts_command_writes_loadable_layouts(tmp_path: Path) -> None:
 
 
 def test_fault_choices_are_the_simulator_s(capsys: pytest.CaptureFixture[str]) -> None:
-    from phri_bringup.cli import FAULT_CHOICES
-    from phri_sim.faults import FAULT_KINDS
+    from phri_bringup.cli.main import FAULT_CHOICES
+    from phri_sim.world.sensor_faults import FAULT_KINDS
 
     assert FAULT_CHOICES == FAULT_KINDS
     with pytest.raises(SystemExit):
@@ -130,8 +130,8 @@ def test_phri_sim_fault_reports_what_the_robot_did(tmp_path: Path) -> None:
 
 
 def test_sim_help_lists_every_scenario(capsys: pytest.CaptureFixture[str]) -> None:
-    from phri_bringup.cli import SCENARIO_CHOICES
-    from phri_bringup.graph import SCENARIO_FILES, canonical_scenario
+    from phri_bringup.cli.main import SCENARIO_CHOICES
+    from phri_bringup.graph.nodes import SCENARIO_FILES, canonical_scenario
 
     assert {canonical_scenario(c) for c in SCENARIO_CHOICES} == set(SCENARIO_FILES)
     with pytest.raises(SystemExit):
@@ -145,8 +145,8 @@ def test_params_paper_is_the_waltz_paper_scenario() -> None:
     """README's ``phri sim --scenario waltz --params paper``: the waltz_paper scenario with
     config/waltz_paper.yaml, accepted by the same check the run makes; the combinations without
     a paper set are refused before anything starts."""
-    from phri_bringup.cli import check_params, waltz_variant
-    from phri_bringup.graph import config_file
+    from phri_bringup.cli.main import check_params, waltz_variant
+    from phri_bringup.graph.nodes import config_file
 
     name, params = waltz_variant("waltz", "paper", "paper")
     assert (name, params) == ("waltz_paper", str(config_file("waltz_paper")))

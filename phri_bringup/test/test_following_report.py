@@ -13,10 +13,14 @@ from typing import Any
 
 import pytest
 
-from phri_bringup.cli import _parser
-from phri_bringup.following_report import replot_following, series_from_recording, side_by_side
-from phri_sim.following import following_summary
-from phri_sim.scenarios import WALTZ_LINK
+from phri_bringup.cli.main import _parser
+from phri_bringup.reports.following_report import (
+    replot_following,
+    series_from_recording,
+    side_by_side,
+)
+from phri_sim.evaluation.following_metrics import following_summary
+from phri_sim.scenarios.catalogue import WALTZ_LINK
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "bringup.md"
 
@@ -26,11 +30,12 @@ def test_following_recomputed_from_the_recording_matches_the_run(tmp_path: Path)
     """7 s of the waltz (the first step starts at 2 s): the block rebuilt from /odom,
     /sim/person/poses and /sim/contacts/<link>/wrench equals the one the run computed (same
     samples, same numbers: not merely close)."""
-    from phri_bringup.observer import RecordingSink
-    from phri_bringup.session import run_session
+    from phri_bringup.cli.session import run_session
+    from phri_bringup.observer.node import RecordingSink
+    from phri_sim.ros.run_options import RunOptions
 
     directory = tmp_path / "recording"
-    result = run_session("waltz", duration=7.0,
+    result = run_session("waltz", RunOptions(duration=7.0),
                          sinks=[RecordingSink(str(directory), skin_rate_hz=1.0)])
     live = result.metrics["following"]
     series = series_from_recording(directory, WALTZ_LINK)
@@ -79,9 +84,9 @@ def test_phri_followability_short_writes_the_map(tmp_path: Path) -> None:
     forearm (270°, the robot's right) at 0.05 m/s loses the waist today, straight ahead at
     0.05 m/s is followed."""
     out = tmp_path / "map"
-    proc = subprocess.run([sys.executable, "-m", "phri_bringup.cli", "followability", "--short",
-                           "--out", str(out)], capture_output=True, text=True, timeout=300,
-                          env={**os.environ, "MUJOCO_GL": "egl"})
+    proc = subprocess.run([sys.executable, "-m", "phri_bringup.cli.main", "followability",
+                           "--short", "--out", str(out)], capture_output=True, text=True,
+                          timeout=300, env={**os.environ, "MUJOCO_GL": "egl"})
     assert proc.returncode == 0, proc.stderr[-3000:]
     result: dict[str, Any] = json.loads((out / "followability.json").read_text())
     assert [r["heading_deg"] for r in result["translate"]] == [0, 45, 90, 135, 180, 225, 270, 315]
@@ -97,8 +102,8 @@ def test_phri_sim_waltz_runs_the_motionless_baseline_beside_the_run(tmp_path: Pa
     """`phri sim` on the waltz: metrics.json holds the `motionless` run, stderr the table,
     plots/following.png the plot; the motionless robot does not move, the robot does."""
     out = tmp_path / "run"
-    proc = subprocess.run([sys.executable, "-m", "phri_bringup.cli", "sim", "--scenario", "waltz",
-                           "--duration", "6", "--no-record", "--out", str(out)],
+    proc = subprocess.run([sys.executable, "-m", "phri_bringup.cli.main", "sim", "--scenario",
+                           "waltz", "--duration", "6", "--no-record", "--out", str(out)],
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr[-3000:]
     metrics = json.loads((out / "metrics.json").read_text())

@@ -8,7 +8,8 @@ from typing import Any
 
 import pytest
 
-from phri_bringup import graph, params
+from phri_bringup.graph import nodes as graph
+from phri_bringup.graph import parameter_files as params
 
 LAUNCH = Path(__file__).resolve().parents[1] / "launch"
 
@@ -22,7 +23,7 @@ def _launch_tree(name: str) -> ast.Module:
 def test_launch_files_build_their_nodes_from_the_graph_module(name: str, builder: str) -> None:
     tree = _launch_tree(name)
     imported = {alias.name for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)
-                and node.module == "phri_bringup.graph" for alias in node.names}
+                and node.module == "phri_bringup.graph.nodes" for alias in node.names}
     assert {builder, "launch_node_kwargs"} <= imported
     names = {n.id for n in ast.walk(tree) if isinstance(n, ast.Name)}
     assert "generate_launch_description" in {f.name for f in tree.body
@@ -164,7 +165,7 @@ def test_rviz_runs_on_sim_time_in_the_simulation() -> None:
 
 
 def test_scenario_names_map_to_phri_sim() -> None:
-    from phri_sim.scenarios import SCENARIOS
+    from phri_sim.scenarios.catalogue import SCENARIOS
 
     for cli in ("centring", "sliding", "wholebody", "waltz"):
         assert graph.canonical_scenario(cli) in SCENARIOS
@@ -177,7 +178,8 @@ def test_scenario_names_map_to_phri_sim() -> None:
 @pytest.mark.parametrize("scenario", ["waltz", "sliding"])
 def test_runner_nodes_and_parameters_match_the_graph(ros_context: Any, scenario: str) -> None:
     """The in-process nodes are the graph's in-process nodes and hold the file's values."""
-    from phri_bringup.session import run_session
+    from phri_bringup.cli.session import run_session
+    from phri_sim.ros.run_options import RunOptions
 
     specs = [n for n in graph.sim_graph(scenario) if n.in_process]
     sections = params.load(graph.config_file(graph.scenario_file(scenario)))
@@ -198,7 +200,7 @@ def test_runner_nodes_and_parameters_match_the_graph(ros_context: Any, scenario:
                 else:
                     assert actual == value, (spec.name, key)
 
-    result = run_session(scenario, duration=0.05, context=ros_context, inspect=inspect)
+    result = run_session(scenario, RunOptions(duration=0.05), context=ros_context, inspect=inspect)
     assert set(seen) == {s.name for s in specs}
     assert len(seen[graph.CONTROLLER]) > 10
     assert result.zero_at_exit
@@ -220,8 +222,8 @@ def test_ur_robot_driver_replaces_the_arm_bridges_and_nothing_else() -> None:
     """``arm_driver:=ur_robot_driver``: no phri arm bridge (and so none of ur_arms.yaml's
     placeholders in the way); every other node as with phri's RTDE bridges; the launch file
     offers exactly the graph's choices."""
-    from phri_bringup.cli import main
-    from phri_bringup.preflight import placeholder_problems
+    from phri_bringup.cli.main import main
+    from phri_bringup.graph.preflight import placeholder_problems
 
     rtde = graph.ros_nodes(graph.real_graph())
     urd = graph.ros_nodes(graph.real_graph(arm_driver="ur_robot_driver"))

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from phri_bringup.graph import HARDWARE_CONFIG, PATCHES, real_graph, share_dir, sim_graph
+from phri_bringup.graph.nodes import HARDWARE_CONFIG, PATCHES, real_graph, share_dir, sim_graph
 
 pytest.importorskip("launch")
 pytest.importorskip("launch_ros")

@@ -28,7 +28,7 @@ from launch.launch_description_sources import PythonLaunchDescriptionSource
 from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Float64MultiArray
 
-from phri_bringup.graph import SIM_TOPICS, share_dir
+from phri_bringup.graph.nodes import SIM_TOPICS, share_dir
 from phri_common.taxels import TaxelArray, msg_to_taxels, taxels_to_msg
 
 pytestmark = pytest.mark.launch_test

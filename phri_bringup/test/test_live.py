@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from phri_bringup.graph import PATCHES
+from phri_bringup.graph.nodes import PATCHES
 
 GUIDE = Path(__file__).resolve().parents[2] / "docs" / "bringup.md"
 
@@ -47,7 +47,7 @@ def _listening_addresses(port: int) -> set[str]:
 ])
 def test_server_starts_on_localhost_and_advertises_channels(protocols: list[str]) -> None:
     websockets = pytest.importorskip("websockets.sync.client")
-    from phri_bringup.live import FoxgloveSink
+    from phri_bringup.observer.foxglove import FoxgloveSink
 
     sink = FoxgloveSink(port=0)
     try:
@@ -93,7 +93,7 @@ def test_arrow_orientation_turns_x_onto_the_direction() -> None:
     import numpy as np
     from scipy.spatial.transform import Rotation
 
-    from phri_bringup.live import arrow_orientation
+    from phri_bringup.observer.foxglove import arrow_orientation
 
     rng = np.random.default_rng(3)
     for d in [*rng.normal(size=(20, 3)), np.array([-1.0, 0, 0]), np.array([2.0, 0, 0])]:

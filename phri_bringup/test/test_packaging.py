@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from phri_bringup import graph
+from phri_bringup.graph import nodes as graph
 
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGES = sorted(p.parent.name for p in ROOT.glob("*/package.xml"))
@@ -69,7 +69,7 @@ def _key(module: str, keys: dict[str, str | None]) -> str | None:
 
 def _launched_packages() -> set[str]:
     nodes = graph.sim_graph("waltz", rviz=True) + graph.real_graph(rviz=True)
-    recorded = {t.type.split("/")[0] for t in graph.SIM_TOPICS}  # recording.py imports these
+    recorded = {t.type.split("/")[0] for t in graph.SIM_TOPICS}  # observer/bag.py imports these
     processes = {n.package for n in nodes + graph.ros_nodes(nodes)} - {graph.PACKAGE}
     return processes | recorded | {"launch", "launch_ros"}
 

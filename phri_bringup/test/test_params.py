@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from phri_bringup import params
-from phri_bringup.graph import CONTROLLER, ESTIMATION, SCENARIO_FILES, config_file
+from phri_bringup.graph import parameter_files as params
+from phri_bringup.graph.nodes import CONTROLLER, ESTIMATION, SCENARIO_FILES, config_file
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "bringup.md"
 STEMS = [*SCENARIO_FILES.values(), "real"]
@@ -26,7 +26,7 @@ def test_files_match_the_paper_values_of_the_scenarios() -> None:
 
 
 def test_paper_values_in_the_files() -> None:
-    """Design §6 and Table II, stated independently of phri_sim.scenarios."""
+    """Design §6 and Table II, stated independently of phri_sim.scenarios.catalogue."""
     table_ii = {"velocity_limit": 0.15, "k_eta": 200.0, "b": 4.0, "k_p": 5.0, "psi_thr": 1e-4,
                 "epsilon": 0.1, "horizon": 0.15, "rate_hz": 100.0}
     expected = {  # (Λ, D, K) diagonals of every link

@@ -1,4 +1,4 @@
-"""Launch files check the whole graph before starting anything (phri_bringup.preflight)."""
+"""Launch files check the whole graph before starting anything (phri_bringup.graph.preflight)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from phri_bringup import graph, preflight
+from phri_bringup.graph import nodes as graph
+from phri_bringup.graph import preflight
 
 LAUNCH = Path(__file__).resolve().parents[1] / "launch"
 

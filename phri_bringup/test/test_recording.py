@@ -13,8 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from rclpy.serialization import serialize_message
 
-from phri_bringup.frames import RobotFrames, fixed_joint_edges, split_static
-from phri_bringup.recording import (
+from phri_bringup.observer.bag import (
     McapRecording,
     clear_previous_recording,
     encode,
@@ -22,6 +21,7 @@ from phri_bringup.recording import (
     stamp_ns_of,
     tf_message,
 )
+from phri_bringup.observer.link_frames import RobotFrames, fixed_joint_edges, split_static
 
 
 @given(sec=st.integers(0, 2**31 - 1), nanosec=st.integers(0, 999_999_999))
@@ -90,7 +90,7 @@ def sink_recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
     from rosgraph_msgs.msg import Clock
     from sensor_msgs.msg import JointState
 
-    from phri_bringup.observer import RecordingSink
+    from phri_bringup.observer.node import RecordingSink
     from phri_description.description import UR_JOINTS
 
     directory = tmp_path_factory.mktemp("sink") / "recording"
@@ -135,8 +135,8 @@ def test_recording_has_the_metadata_ros2_bag_play_needs(sink_recording: Path) ->
     and offered QoS; /robot_description and /tf_static are recorded once with the latched QoS
     (transient local, depth 1) so ``ros2 bag play`` replays them latched; the other topics are
     reliable and volatile as their publishers offer them."""
-    from phri_bringup.graph import SIM_TOPICS
-    from phri_bringup.recording import typestore
+    from phri_bringup.graph.nodes import SIM_TOPICS
+    from phri_bringup.observer.bag import typestore
 
     info = yaml.safe_load((sink_recording / "metadata.yaml").read_text())[
         "rosbag2_bagfile_information"]
@@ -172,7 +172,7 @@ def test_recording_reads_back_latched_description_and_static_tf(sink_recording: 
     from rosbags.highlevel import AnyReader
     from rosbags.interfaces import QosDurability
 
-    from phri_bringup.graph import robot_description_urdf
+    from phri_bringup.graph.nodes import robot_description_urdf
 
     fixed = fixed_joint_edges()
     with AnyReader([sink_recording]) as reader:
@@ -223,8 +223,8 @@ def test_tf_tree_composes_to_the_simulator_link_poses() -> None:
     from scipy.spatial.transform import Rotation
 
     from phri_description.urdf_writer import urdf_path
-    from phri_sim.scenarios import Q_HOME
-    from phri_sim.sim import Simulation
+    from phri_sim.scenarios.catalogue import Q_HOME
+    from phri_sim.world.simulation import Simulation
 
     rng = np.random.default_rng(0)
     sim = Simulation()

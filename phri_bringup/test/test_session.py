@@ -11,9 +11,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from phri_bringup.graph import RECORDED_EXTRA_TOPICS, SIM_TOPICS
-from phri_bringup.observer import RecordingSink
-from phri_bringup.session import StopFlag, run_session
+from phri_bringup.cli.session import StopFlag, run_session
+from phri_bringup.graph.nodes import RECORDED_EXTRA_TOPICS, SIM_TOPICS
+from phri_bringup.observer.node import RecordingSink
+from phri_sim.ros.run_options import RunOptions
 
 pytestmark = pytest.mark.ros
 
@@ -22,7 +23,7 @@ pytestmark = pytest.mark.ros
 def test_every_scenario_starts_and_stops_with_zero_velocity(ros_context: Any,
                                                             scenario: str) -> None:
     threads_before = threading.active_count()
-    result = run_session(scenario, duration=0.3, context=ros_context)
+    result = run_session(scenario, RunOptions(duration=0.3), context=ros_context)
     assert result.zero_at_exit
     assert not result.interrupted
     assert result.metrics["duration"] == pytest.approx(0.3)
@@ -40,7 +41,7 @@ def test_stop_request_ends_early_with_zero_velocity(ros_context: Any) -> None:
         seen.append(t)
         stop.set()
 
-    result = run_session("centring", duration=30.0, context=ros_context, stop=stop,
+    result = run_session("centring", RunOptions(duration=30.0), context=ros_context, stop=stop,
                          progress=progress)
     assert result.interrupted and result.zero_at_exit
     assert len(seen) == 1 and seen[0] == pytest.approx(1.0)
@@ -74,7 +75,7 @@ def recorded_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Any]:
                     break
                 executor.spin_once(timeout_sec=0.05)
 
-        result = run_session("centring", duration=2.5, context=context, progress=look,
+        result = run_session("centring", RunOptions(duration=2.5), context=context, progress=look,
                              sinks=[RecordingSink(str(directory), skin_rate_hz=0.0)])
     result.message_counts["urdf"] = urdfs  # type: ignore[assignment]
     return directory, result
@@ -141,7 +142,7 @@ def test_recording_decodes_with_mcap_ros2_too(recorded_run: Any) -> None:
 def test_push_moves_the_robot_and_plots_show_it(recorded_run: Any, tmp_path: Path) -> None:
     """The right forearm is pressed from 1 s on: the estimated force rises to the order of the
     15 N press, the robot yields (arm joints move, within the 0.15 rad/s bound) and ψ rises."""
-    from phri_bringup.plots import make_plots, read_run
+    from phri_bringup.reports.plots import make_plots, read_run
 
     directory, _ = recorded_run
     data = read_run(directory)
@@ -192,8 +193,8 @@ def test_nan_input_leaves_every_node_running(ros_context: Any) -> None:
         cmd_pub.publish(bad)
 
     try:
-        result = run_session("centring", duration=2.0, context=ros_context, inspect=inspect,
-                             progress=inject, sensor_transport="topics")
+        result = run_session("centring", RunOptions(duration=2.0, sensor_transport="topics"),
+                             context=ros_context, inspect=inspect, progress=inject)
     finally:
         injector.destroy_node()
     run = runs[0]
@@ -201,3 +202,23 @@ def test_nan_input_leaves_every_node_running(ros_context: Any) -> None:
     assert result.metrics["commands_refused"] >= 1
     assert result.metrics["duration"] == pytest.approx(2.0)
     assert result.zero_at_exit
+
+
+def test_the_session_scenario_is_the_files_values_and_leaves_the_catalogue(
+        tmp_path: Path) -> None:
+    """The parameter file's controller section becomes a scenario value (what the runner gets);
+    the catalogue's scenario is not changed, and a file for another scenario is refused."""
+    from phri_bringup.cli.session import session_scenario
+    from phri_bringup.graph.nodes import config_file
+    from phri_sim.scenarios.catalogue import SCENARIOS
+
+    text = config_file("waltz").read_text(encoding="utf-8")
+    assert "    k_eta: 1000.0\n" in text
+    edited = tmp_path / "waltz.yaml"
+    edited.write_text(text.replace("    k_eta: 1000.0\n", "    k_eta: 900.0\n"), encoding="utf-8")
+    values = session_scenario("waltz", edited)
+    assert values.controller_parameters["k_eta"] == 900.0
+    assert values.name == "waltz"
+    assert SCENARIOS["waltz"].controller_parameters["k_eta"] == 1000.0
+    with pytest.raises(ValueError, match="parameter file is for scenario 'waltz'"):
+        session_scenario("centring", edited)

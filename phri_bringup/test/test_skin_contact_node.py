@@ -101,8 +101,8 @@ def test_the_launch_command_of_the_composed_process_configures_each_node(
     import rclpy
     from rclpy.context import Context
 
-    from phri_bringup import graph
-    from phri_bringup.cli import main as phri
+    from phri_bringup.cli.main import main as phri
+    from phri_bringup.graph import nodes as graph
 
     assert phri(["layouts", str(tmp_path / "layouts")]) == 0
     ports = {name: str(tmp_path / f"{name}.pty") for name in graph.REAL_SKIN_PORTS}
@@ -129,7 +129,7 @@ def test_the_launch_command_of_the_composed_process_configures_each_node(
         estimation = by[graph.ESTIMATION]
         assert estimation.get_parameter("subscribe_taxels").value is False
         real = graph.config_file("real")
-        from phri_bringup import params
+        from phri_bringup.graph import parameter_files as params
         for key, value in params.load(real)[graph.ESTIMATION].items():
             actual = estimation.get_parameter(key).value
             assert (list(actual) if isinstance(value, list) else actual) == value, key

@@ -8,10 +8,16 @@ import math
 import numpy as np
 import pytest
 
-from phri_bringup.video import changing_pixel_share
-from phri_bringup.video_camera import CameraRig, SmoothCamera, View, couple_view, wrap_degrees
-from phri_bringup.video_figure import DIMS, Feet, bones, skeleton, two_link_ik
-from phri_bringup.video_overlay import draw_overlay, overlay_lines
+from phri_bringup.reports.video import changing_pixel_share
+from phri_bringup.reports.video_camera import (
+    CameraRig,
+    SmoothCamera,
+    View,
+    couple_view,
+    wrap_degrees,
+)
+from phri_bringup.reports.video_figure import DIMS, Feet, bones, skeleton, two_link_ik
+from phri_bringup.reports.video_overlay import draw_overlay, overlay_lines
 
 
 def _rng() -> np.random.Generator:
@@ -236,7 +242,7 @@ def _documented_value(doc: str, name: str) -> float:
 def test_docs_give_every_camera_and_stepping_default_and_every_video_option() -> None:
     from dataclasses import fields
 
-    from phri_bringup import video
+    from phri_bringup.reports import video
 
     doc = _video_docs()
     rig, feet = CameraRig(), Feet()

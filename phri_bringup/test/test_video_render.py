@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from phri_bringup.video import (
+from phri_bringup.reports.video import (
     FrameRenderer,
     Track,
     Tracks,
@@ -20,7 +20,7 @@ from phri_bringup.video import (
 from phri_common.planar import quaternion_from_yaw
 from phri_common.records import ContactState
 from phri_description.description import BASE_JOINTS, JOINT_NAMES
-from phri_sim.scenarios import Q_WALTZ
+from phri_sim.scenarios.catalogue import Q_WALTZ
 
 FPS = 10.0
 SECONDS = 4.0

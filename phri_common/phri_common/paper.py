@@ -18,10 +18,10 @@ Source: "Beyond the End-Effector" (``/work/shared/paper/beyond-end-effector.md``
 Who reads them: the controller's configuration defaults and ``ParamSpec`` lists
 (``wholebody_controller.config`` / ``.parameters``), the skin driver's filter window, contact
 estimation's torque limit, the simulator bridge's skin rate, the base guard's limits and the arm
-bridges' rate (phri_hardware), the phri_sim scenarios (``phri_sim.scenarios``) and, through them,
-the generated parameter files ``phri_bringup/config/*.yaml`` (``phri params --write``).
-``phri_common/test/test_paper.py`` pins every value against the paper's literals, typed again
-from the paper.
+bridges' rate (phri_hardware), the phri_sim scenarios (``phri_sim.scenarios.catalogue``) and,
+through them, the generated parameter files ``phri_bringup/config/*.yaml`` (``phri params
+--write``). ``phri_common/test/test_paper.py`` pins every value against the paper's literals, typed
+again from the paper.
 
 Why here: every package that needs one of these values (skin_driver, contact_estimation,
 wholebody_controller, phri_sim, phri_bringup, phri_hardware) already depends on phri_common, and

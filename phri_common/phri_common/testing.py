@@ -16,6 +16,7 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy loads OpenBLAS
 
+import ast
 import difflib
 import math
 import re
@@ -161,3 +162,51 @@ def assert_generated_file(stored: Path, generated: str, regenerate: str,
         shown = "\n".join(differences[:10])
         pytest.fail(f"{stored} differs from what its generator writes now; if the change is "
                     f"intended, run `{regenerate}` and commit the file:\n{shown}")
+
+
+def _imported_modules(tree: ast.AST) -> Iterator[str]:
+    """The absolute module paths ``import`` and ``from … import`` statements name (also inside
+    functions): ``from a.b import c`` gives ``a.b``; ``from a import b`` gives ``a.b`` (``b``
+    may be a subpackage)."""
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            yield from (alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            if "." in node.module:
+                yield node.module
+            else:
+                yield from (f"{node.module}.{alias.name}" for alias in node.names)
+
+
+def layer_violations(package_dir: Path, layers: Sequence[str], above: Sequence[str] = ()
+                     ) -> list[str]:
+    """Imports that go up the layers of a Python package: one line per offending import.
+
+    Args:
+        package_dir: the package's folder (``<pkg>/<pkg>``); its subpackages are its layers.
+        layers: subpackage names, lowest first: a module of one may import only from its own
+            layer and the ones before it. A top-level module of the package counts as above
+            every layer, and a subpackage not listed is an error (the list must stay complete).
+        above: packages above this one (none of their modules may be imported).
+    """
+    package = package_dir.name
+    rank = {name: i for i, name in enumerate(layers)}
+    top = len(layers)
+    problems = [f"{sub.name}/ is not in the layer list"
+                for sub in sorted(package_dir.iterdir())
+                if (sub / "__init__.py").is_file() and sub.name not in rank]
+    for path in sorted(package_dir.rglob("*.py")):
+        relative = path.relative_to(package_dir)
+        own = rank.get(relative.parts[0], top) if len(relative.parts) > 1 else top
+        for module in _imported_modules(ast.parse(path.read_text(encoding="utf-8"))):
+            parts = module.split(".")
+            if parts[0] in above:
+                problems.append(f"{relative}: imports {module} (package {parts[0]} is above)")
+            elif parts[0] == package and len(parts) > 1 and parts[1] in rank \
+                    and rank[parts[1]] > own:
+                problems.append(f"{relative}: imports {module} (layer {parts[1]} is above "
+                                f"{relative.parts[0]})")
+            elif parts[0] == package and len(parts) == 2 and own < top \
+                    and (package_dir / f"{parts[1]}.py").is_file():
+                problems.append(f"{relative}: imports {module} (a top-level module)")
+    return sorted(set(problems))

@@ -1,12 +1,12 @@
-"""After-fault metrics (phri_sim.metrics.AfterFault) on hand-made series: the definitions of
-docs/phri_sim.md, "Fault injection"."""
+"""After-fault metrics (phri_sim.evaluation.metrics.AfterFault) on hand-made series: the definitions
+of docs/phri_sim.md, "Fault injection"."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from phri_sim.metrics import AfterFault
+from phri_sim.evaluation.metrics import AfterFault
 
 PERIOD = 0.01
 

@@ -1,5 +1,5 @@
-"""Body-region force limits (phri_sim.body_forces): the ISO/TS 15066 reading of a force series,
-the body-part mapping and the forces read from the physics."""
+"""Body-region force limits (phri_sim.evaluation.body_forces): the ISO/TS 15066 reading of a force
+series, the body-part mapping and the forces read from the physics."""
 
 from __future__ import annotations
 
@@ -7,16 +7,16 @@ import numpy as np
 import pytest
 
 from phri_common.iso15066 import BODY_REGIONS
-from phri_sim.body_forces import (
+from phri_sim.evaluation.body_forces import (
     PERSON_PART_REGIONS,
     ForceLimitTracker,
     PersonRobotForces,
     limit_report,
     part_region,
 )
-from phri_sim.scenarios import SCENARIOS, start_scenario
-from phri_sim.sim import SimConfig, Simulation
-from phri_sim.skin import SkinConfig
+from phri_sim.scenarios.catalogue import SCENARIOS, start_scenario
+from phri_sim.world.simulation import SimConfig, Simulation
+from phri_sim.world.skin_footprint import SkinConfig
 
 DT = 0.005
 

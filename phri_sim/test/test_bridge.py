@@ -15,7 +15,7 @@ from sensor_msgs.msg import PointCloud2
 
 from phri_common.taxels import msg_to_taxels
 from phri_common.testing import spin_until
-from phri_sim.bridge import SimBridgeNode
+from phri_sim.ros.bridge import SimBridgeNode
 
 
 def _bridge(ros_context: Any, **params: Any) -> SimBridgeNode:
@@ -106,7 +106,7 @@ def test_sigint_while_publishing_exits_cleanly(ros_context: Any) -> None:
         for inherited in (signal.SIG_DFL, signal.SIG_IGN, signal.SIG_IGN):
             ticks.clear()
             proc = subprocess.Popen(
-                [sys.executable, "-c", "from phri_sim.bridge import main; main()",
+                [sys.executable, "-c", "from phri_sim.ros.bridge import main; main()",
                  "--ros-args", "-p", "scenario:=waltz", "-p", "real_time_factor:=20.0"],
                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                 preexec_fn=lambda sig=inherited: signal.signal(signal.SIGINT, sig))

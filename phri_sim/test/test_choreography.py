@@ -1,4 +1,5 @@
-"""The waltz choreography (phri_sim.choreography): figures, turn, travel and each tempo's limits."""
+"""The waltz choreography (phri_sim.scenarios.waltz_choreography): figures, turn, travel and each
+tempo's limits."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from phri_sim.choreography import (
+from phri_sim.scenarios.waltz_choreography import (
     TEMPOS,
     Beat,
     Choreography,

@@ -27,8 +27,9 @@ from typing import Any
 
 import pytest
 
-from phri_sim.body_forces import limit_failures
-from phri_sim.runner import run_scenario
+from phri_sim.evaluation.body_forces import limit_failures
+from phri_sim.ros.run_options import RunOptions
+from phri_sim.ros.runner import run_scenario
 
 FAULT_SCENARIO = "waltz_paper"
 FAULT_TIME = 5.0
@@ -49,8 +50,8 @@ def runs() -> Iterator[Runs]:
 
     def get(fault: str) -> dict[str, Any]:
         if fault not in done:
-            done[fault] = run_scenario(FAULT_SCENARIO, duration=FAULT_TIME + AFTER[fault], seed=1,
-                                       fault=fault, fault_time=FAULT_TIME)
+            done[fault] = run_scenario(FAULT_SCENARIO, RunOptions(
+                duration=FAULT_TIME + AFTER[fault], seed=1, fault=fault, fault_time=FAULT_TIME))
         return done[fault]
 
     yield get
@@ -137,8 +138,8 @@ def test_joint_jump_is_refused_for_one_period_then_commands_resume(runs: Runs) -
 def test_blinded_skin_on_the_default_set() -> None:
     """The default waltz set with a blinded skin (module docstring): the person stays within
     limits, the base moves ≤ 0.2 m and the commands stay small (band keeping only)."""
-    m = run_scenario("waltz", duration=FAULT_TIME + AFTER["skin_blind"], seed=1,
-                     fault="skin_blind", fault_time=FAULT_TIME)
+    m = run_scenario("waltz", RunOptions(duration=FAULT_TIME + AFTER["skin_blind"], seed=1,
+                                         fault="skin_blind", fault_time=FAULT_TIME))
     f = m["fault"]
     _person_within_limits(f)
     assert f["base_travel"] <= 0.2

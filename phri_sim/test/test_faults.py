@@ -1,4 +1,5 @@
-"""Fault models (phri_sim.faults): what each fault does to the sensor stream, and when."""
+"""Fault models (phri_sim.world.sensor_faults): what each fault does to the sensor stream, and
+when."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import numpy as np
 import pytest
 
 from phri_common.taxels import TaxelCloudEncoder, msg_to_taxels
-from phri_sim.faults import FaultSpec, SensorFaults
+from phri_sim.world.sensor_faults import FaultSpec, SensorFaults
 
 JOINTS = ("a_joint", "left_elbow_joint", "c_joint")
 

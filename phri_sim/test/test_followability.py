@@ -7,9 +7,9 @@ from typing import Any
 
 import pytest
 
-from phri_sim.followability import run_lead
-from phri_sim.following import Bars
-from phri_sim.lead import Lead, LeadTiming, lead_passes
+from phri_sim.evaluation.following_metrics import Bars
+from phri_sim.studies.followability import run_lead
+from phri_sim.studies.leads import Lead, LeadTiming, lead_passes
 
 pytestmark = pytest.mark.ros
 

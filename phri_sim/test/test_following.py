@@ -1,4 +1,5 @@
-"""Following metrics (phri_sim.following) on analytic pose sequences: known drift, turn, lag."""
+"""Following metrics (phri_sim.evaluation.following_metrics) on analytic pose sequences: known
+drift, turn, lag."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from phri_sim.following import (
+from phri_sim.evaluation.following_metrics import (
     Bars,
     FollowingSeries,
     accumulated_turn,

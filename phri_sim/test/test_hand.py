@@ -1,5 +1,5 @@
-"""The force-controlled hand (phri_sim.hand) in the physics: it holds its normal force while the
-link moves away, lets go for real, and refuses touches off the skin.
+"""The force-controlled hand (phri_sim.scenarios.hand) in the physics: it holds its normal force
+while the link moves away, lets go for real, and refuses touches off the skin.
 
 References are physical, not copied from a run: the target force of the touch (the hand's spring
 law F = K_h δ), and the geometry of the patch.
@@ -10,7 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from phri_sim.hand import (
+from phri_sim.scenarios.catalogue import Q_HOME
+from phri_sim.scenarios.hand import (
     GAP,
     LIFT,
     ForceHand,
@@ -18,9 +19,8 @@ from phri_sim.hand import (
     make_touch,
     normal_force,
 )
-from phri_sim.scenarios import Q_HOME
-from phri_sim.sim import SimConfig, Simulation
-from phri_sim.skin import SkinConfig
+from phri_sim.world.simulation import SimConfig, Simulation
+from phri_sim.world.skin_footprint import SkinConfig
 
 FORCE = 15.0
 SIDE = (0.0, 1.0, 0.0)

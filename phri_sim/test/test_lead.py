@@ -1,4 +1,5 @@
-"""Lead scenarios and the followability search (phri_sim.lead), without running the nodes."""
+"""Lead scenarios and the followability search (phri_sim.studies.leads), without running the
+nodes."""
 
 from __future__ import annotations
 
@@ -8,8 +9,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from phri_sim.following import Bars
-from phri_sim.lead import (
+from phri_sim.evaluation.following_metrics import Bars
+from phri_sim.scenarios.catalogue import SCENARIOS, start_scenario
+from phri_sim.studies.leads import (
     FULL_TIMING,
     Lead,
     LeadTiming,
@@ -17,10 +19,8 @@ from phri_sim.lead import (
     followability_map,
     lead_passes,
     lead_scenario,
-    registered,
 )
-from phri_sim.scenarios import SCENARIOS, start_scenario
-from phri_sim.sim import Simulation
+from phri_sim.world.simulation import Simulation
 
 
 def test_profile_distance_is_the_integral_of_its_speed() -> None:
@@ -66,8 +66,7 @@ def test_a_translation_moves_the_hold_rigidly_at_the_lead_speed(sim: Simulation)
     0.1 m/s in the cruise, heading unchanged."""
     lead = Lead("translate", 0.1, 90.0)
     sc = lead_scenario(lead, SHORT_PROFILE)
-    with registered(sc):
-        script = start_scenario(sim, sc)
+    script = start_scenario(sim, sc)
     hold = SCENARIOS["waltz"].make_script(sim)(0.0)
     t = SHORT_PROFILE.intro + SHORT_PROFILE.ramp + 0.5
     now = script(t)

@@ -8,8 +8,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from phri_sim.scenarios import Q_HOME
-from phri_sim.scene import MODELS_DIR, robot_spec, scene_spec, write_models
+from phri_sim.scenarios.catalogue import Q_HOME
+from phri_sim.world.scene import MODELS_DIR, robot_spec, scene_spec, write_models
 
 
 def _step_without_warnings(model: mujoco.MjModel, seconds: float = 0.5) -> mujoco.MjData:
@@ -52,7 +52,7 @@ def test_stored_xml_matches_generator(tmp_path: Path) -> None:
     for name in ("robot.xml", "scene.xml"):
         stored = mujoco.MjModel.from_xml_path(str(MODELS_DIR / name))
         fresh = mujoco.MjModel.from_xml_path(str(tmp_path / name))
-        hint = f"{name} is stale: run `.venv/bin/python -m phri_sim.scene` and commit it"
+        hint = f"{name} is stale: run `.venv/bin/python -m phri_sim.world.scene` and commit it"
         for kind in (mujoco.mjtObj.mjOBJ_BODY, mujoco.mjtObj.mjOBJ_JOINT,
                      mujoco.mjtObj.mjOBJ_GEOM, mujoco.mjtObj.mjOBJ_ACTUATOR):
             count = {mujoco.mjtObj.mjOBJ_BODY: "nbody", mujoco.mjtObj.mjOBJ_JOINT: "njnt",

@@ -25,7 +25,9 @@ import pytest
 
 from phri_common import paper
 from phri_common.testing import ros_context_scope
-from phri_sim.paper_checks import (
+from phri_sim.scenarios.catalogue import CENTRING_EVEN, CENTRING_TWO_SIDED, SLIDE_MOVES
+from phri_sim.studies.figure_series import FigureSeries, record_scenario
+from phri_sim.studies.paper_checks import (
     CENTRING_LINK,
     SLIDING_LINK,
     centring_checks,
@@ -38,8 +40,6 @@ from phri_sim.paper_checks import (
     whole_body_checks,
     whole_body_touches,
 )
-from phri_sim.paper_series import FigureSeries, record_scenario
-from phri_sim.scenarios import CENTRING_EVEN, CENTRING_TWO_SIDED, SLIDE_MOVES
 
 PAGE = Path(__file__).resolve().parents[2] / "docs" / "paper_vs_phri.md"
 SEED = 0

@@ -8,10 +8,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from phri_description.description import robot_description
-from phri_sim.person import LEFT_HAND, PartTarget
-from phri_sim.scenarios import Q_HOME, press_geometry
-from phri_sim.sim import SimConfig, Simulation
-from phri_sim.skin import (
+from phri_sim.scenarios.catalogue import Q_HOME, press_geometry
+from phri_sim.world.person_body import LEFT_HAND, PartTarget
+from phri_sim.world.simulation import SimConfig, Simulation
+from phri_sim.world.skin_footprint import (
     CapsuleShape,
     SkinConfig,
     SphereShape,

@@ -15,17 +15,17 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from phri_sim.person import LEFT_HAND, PERSON_PARTS, TORSO, BodyPartSpec, PartTarget
-from phri_sim.profiles import minimum_jerk, minimum_jerk_rate
-from phri_sim.scenarios import (
+from phri_sim.scenarios.catalogue import (
     SCENARIOS,
     WALTZ_FORCE,
     WALTZ_START_YAW,
     start_scenario,
     waltz_contact,
 )
-from phri_sim.sim import SimConfig, Simulation
-from phri_sim.skin import SkinConfig
+from phri_sim.scenarios.motion_profiles import minimum_jerk, minimum_jerk_rate
+from phri_sim.world.person_body import LEFT_HAND, PERSON_PARTS, TORSO, BodyPartSpec, PartTarget
+from phri_sim.world.simulation import SimConfig, Simulation
+from phri_sim.world.skin_footprint import SkinConfig
 
 
 def _quiet_sim(**kwargs: object) -> Simulation:
@@ -130,14 +130,14 @@ def test_turned_back_leads_the_turn_through_the_skin(turn: float) -> None:
 
 def _expected_wrench(sim: Simulation, part: BodyPartSpec, position: np.ndarray,
                      velocity: np.ndarray, yaw: float) -> tuple[np.ndarray, np.ndarray]:
-    """The spring–damper wrench of person.py written out per part, with MuJoCo's quaternion
+    """The spring–damper wrench of person_body.py written out per part, with MuJoCo's quaternion
     difference for the orientation error: (force [N], torque [N·m]), world frame."""
     b = sim.person.part_body[part.name]
     dof = sim.person.part_dof[part.name]
     force = part.stiffness * (position - sim.data.xpos[b]) + part.damping * (
         velocity - sim.data.qvel[dof : dof + 3])
     horizontal = math.hypot(force[0], force[1])
-    if horizontal > part.max_push:  # person.py, "A person who stops pushing"
+    if horizontal > part.max_push:  # person_body.py, "A person who stops pushing"
         force[:2] *= part.max_push / horizontal
     quat = np.array([math.cos(0.5 * yaw), 0.0, 0.0, math.sin(0.5 * yaw)])
     err = np.zeros(3)
@@ -173,7 +173,7 @@ def test_person_wrench_matches_mujoco_quaternion_difference() -> None:
 def test_the_torso_pushes_at_most_a_persons_push(distance: float, expected: float) -> None:
     """A torso at rest 5 cm from its target pulls with K·d = 30 N; 1 m away (a partner who
     dances on while the robot has stopped) with 80 N, towards the target, the vertical part
-    untouched (person.py, "A person who stops pushing")."""
+    untouched (person_body.py, "A person who stops pushing")."""
     sim = _quiet_sim()
     b = sim.person.part_body[TORSO.name]
     start = sim.data.xpos[b].copy()

@@ -32,13 +32,15 @@ from typing import Any
 
 import pytest
 
-from phri_sim.body_forces import limit_failures
-from phri_sim.runner import run_scenario
-from phri_sim.scenarios import WALTZ_DANCE_RANGE, WALTZ_SHORT
+from phri_sim.evaluation.body_forces import limit_failures
+from phri_sim.ros.run_options import RunOptions
+from phri_sim.ros.runner import run_scenario
+from phri_sim.scenarios.catalogue import WALTZ_DANCE_RANGE, WALTZ_SHORT
 
 
 def _run(ros_context: Any, name: str, duration: float, **options: Any) -> dict[str, Any]:
-    metrics = run_scenario(name, context=ros_context, duration=duration, seed=1, **options)
+    metrics = run_scenario(name, RunOptions(duration=duration, seed=1, **options),
+                           context=ros_context)
     report = metrics["iso15066"]
     assert "person_waist" in report["person"] and "left_forearm_link" in report["robot_links"]
     failures = limit_failures(report)
@@ -110,7 +112,7 @@ def test_waltz_follows_the_partner_through_the_turn(ros_context: Any) -> None:
 def test_paper_waltz_set_does_not_follow_the_turn(ros_context: Any) -> None:
     """The heading check can fail: the paper's literal set (Sec. VI-B, no lead moment, D = 200 on
     the angular axes) on the same short waltz leaves the partner's turn unfollowed."""
-    m = run_scenario("waltz_paper", context=ros_context, duration=WALTZ_SHORT, seed=1)
+    m = run_scenario("waltz_paper", RunOptions(duration=WALTZ_SHORT, seed=1), context=ros_context)
     following = m["following"]
     assert following["turn"]["partner"]["right_deg"] >= 50.0
     assert following["heading_drift_max_deg"] > 2.0 * WALTZ_HEADING_MAX

@@ -1,4 +1,4 @@
-"""The skin sensor model (eq. S1 of phri_sim.sensor_model): quantisation, gain error, offset,
+"""The skin sensor model (eq. S1 of phri_sim.world.skin_sensor): quantisation, gain error, offset,
 noise, dead taxels, saturation, seeding. Expected values are worked out from the model's
 definition (G = 0.5 mN per count, zero at 1000 counts), not taken from the code."""
 
@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from phri_sim.sensor_model import PatchSensor, SensorConfig
+from phri_sim.world.skin_sensor import PatchSensor, SensorConfig
 from skin_driver.layout import rectangular_patch
 
 N = 4000

@@ -7,8 +7,14 @@ import numpy as np
 import pytest
 
 from phri_description.description import robot_description
-from phri_sim.bridge import _publish_steps
-from phri_sim.skin import CapsuleShape, Shape, SkinPatchModel, SphereShape, layout_for_patch
+from phri_sim.ros.bridge import _publish_steps
+from phri_sim.world.skin_footprint import (
+    CapsuleShape,
+    Shape,
+    SkinPatchModel,
+    SphereShape,
+    layout_for_patch,
+)
 
 
 def _path(kind: str, k: int) -> Shape:

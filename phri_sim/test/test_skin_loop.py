@@ -5,11 +5,14 @@ nothing downstream. (The scenario thresholds with the driver: test_scenarios.py.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import pytest
 
-from phri_sim.runner import ScenarioRun, run_scenario
+from phri_sim.ros.run_options import RunOptions
+from phri_sim.ros.runner import ScenarioRun, run_scenario
+from phri_sim.scenarios.catalogue import scenario_named
 
 TIMING = ("wall_time", "real_time_factor", "cpu_time", "real_time_factor_cpu")
 
@@ -20,8 +23,9 @@ def _outcome(metrics: dict[str, Any]) -> dict[str, Any]:
 
 @pytest.mark.ros
 def test_paper_fidelity_sends_every_500_hz_frame_through_the_driver(ros_context: Any) -> None:
-    run = ScenarioRun("centring", context=ros_context, duration=2.0, seed=2, fidelity="paper",
-                      skin_driver=True)
+    run = ScenarioRun(scenario_named("centring"),
+                      RunOptions(duration=2.0, seed=2, fidelity="paper", skin_driver=True),
+                      context=ros_context)
     try:
         metrics = run.run()
         link = run.bridge.skin_link
@@ -45,10 +49,10 @@ def test_paper_fidelity_sends_every_500_hz_frame_through_the_driver(ros_context:
 
 @pytest.mark.ros
 def test_same_seed_same_run_with_the_driver_in_the_loop(ros_context: Any) -> None:
-    options = {"duration": 2.0, "fidelity": "paper", "skin_driver": True}
-    a = run_scenario("centring", context=ros_context, seed=3, **options)
-    b = run_scenario("centring", context=ros_context, seed=3, **options)
-    c = run_scenario("centring", context=ros_context, seed=4, **options)
+    options = RunOptions(duration=2.0, fidelity="paper", skin_driver=True)
+    a = run_scenario("centring", replace(options, seed=3), context=ros_context)
+    b = run_scenario("centring", replace(options, seed=3), context=ros_context)
+    c = run_scenario("centring", replace(options, seed=4), context=ros_context)
     assert _outcome(a) == _outcome(b)
     link = "right_forearm_link"
     assert a["links"][link]["scored_samples"] > 20
@@ -60,9 +64,10 @@ def test_newest_frame_per_period_changes_nothing_downstream(ros_context: Any) ->
     """The paper fidelity hands the estimator one frame per control period: the estimator keeps
     nothing between frames and the controller uses the newest estimate, so publishing all five
     500 Hz frames gives the same run."""
-    options = {"duration": 2.0, "seed": 5, "fidelity": "paper", "skin_driver": True}
-    every = run_scenario("centring", context=ros_context, taxel_publish_rate_hz=0.0, **options)
-    newest = run_scenario("centring", context=ros_context, **options)
+    options = RunOptions(duration=2.0, seed=5, fidelity="paper", skin_driver=True)
+    every = run_scenario("centring", replace(options, taxel_publish_rate_hz=0.0),
+                         context=ros_context)
+    newest = run_scenario("centring", options, context=ros_context)
     assert every["links"]["right_forearm_link"]["scored_samples"] > 20
     assert _outcome(every) == _outcome(newest)
 
@@ -73,9 +78,10 @@ def test_direct_sensor_handoff_gives_the_run_of_the_topics(ros_context: Any) -> 
     and odometry to the controller directly (no serialisation, no DDS): the nodes must see
     exactly what they decode from the topics (float32 taxel columns), so the run is the same,
     number for number; the topics are then published only while someone subscribes."""
-    options = {"duration": 2.0, "seed": 5, "fidelity": "paper"}
-    topics = run_scenario("centring", context=ros_context, sensor_transport="topics", **options)
-    run = ScenarioRun("centring", context=ros_context, **options)
+    options = RunOptions(duration=2.0, seed=5, fidelity="paper")
+    topics = run_scenario("centring", replace(options, sensor_transport="topics"),
+                          context=ros_context)
+    run = ScenarioRun(scenario_named("centring"), options, context=ros_context)
     try:
         direct = run.run()
         pubs = run.bridge.skin_pubs

@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 from phri_description.description import robot_description
-from phri_sim.scenarios import Q_HOME
-from phri_sim.sim import SimConfig, Simulation
-from phri_sim.skin import SkinConfig
-from phri_sim.watchdog import CommandError, CommandWatchdog
+from phri_sim.scenarios.catalogue import Q_HOME
+from phri_sim.world.command_watchdog import CommandError, CommandWatchdog
+from phri_sim.world.simulation import SimConfig, Simulation
+from phri_sim.world.skin_footprint import SkinConfig
 
 
 def test_watchdog_next_change_is_when_a_command_goes_stale() -> None:

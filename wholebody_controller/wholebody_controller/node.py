@@ -35,7 +35,7 @@ from __future__ import annotations
 import sys
 import threading
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -95,6 +95,7 @@ from wholebody_controller.parameters import (
     link_param_specs,
 )
 from wholebody_controller.qp import QPError
+from wholebody_controller.speed_scaling import ARM_COMMAND_SLICES, scale_to_slowest
 
 
 def default_kinematics() -> KinematicsModel:
@@ -128,34 +129,10 @@ SCALING_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5,
 """UR speed scaling: only the newest value matters (ur_robot_driver offers it reliable, which a
 best-effort reader matches)."""
 
-ARM_COMMAND_SLICES: dict[str, slice] = {"left": slice(3, 9), "right": slice(9, 15)}
-"""Each arm's joint velocities in the 15-element command (base x, y, yaw first)."""
-
-
-def scale_to_slowest(command: NDArray[np.float64], scaling: Mapping[str, float]
-                     ) -> NDArray[np.float64]:
-    """The command that makes every axis move at the smallest speed scaling s = min(scaling):
-    the base (no pendant slows it) and an arm without a reading × s, each arm with a reading
-    s_arm × s / s_arm (its UR multiplies by s_arm itself), so the whole body keeps the direction
-    the QP chose at s × its speed. Never amplifies (s / s_arm ≤ 1); no reading: unchanged.
-
-    Args:
-        command: base twist [m/s, m/s, rad/s] then 12 arm joint velocities [rad/s].
-        scaling: executed fraction of commanded speed per arm, 0–1.
-    """
-    if not scaling:
-        return command
-    slowest = min(scaling.values())
-    out = command * slowest
-    for arm, part in ARM_COMMAND_SLICES.items():
-        own = scaling.get(arm)
-        if own is not None and own > 0.0:
-            out[part] = command[part] * (slowest / own)
-    return out
-
-
 class WholeBodyControllerNode(Node):
-    """The whole-body controller node."""
+    """The whole-body controller node. ``direct_state_inputs=True``: its owner calls
+    :meth:`on_joints` / :meth:`on_odom` itself (phri_sim's lock-step runner), so the node
+    subscribes neither ``/joint_states`` nor ``/odom``."""
 
     def __init__(
         self,
@@ -163,6 +140,7 @@ class WholeBodyControllerNode(Node):
         kinematics: KinematicsModel | None = None,
         node_name: str = "wholebody_controller",
         clock_ns: Callable[[], int] | None = None,
+        direct_state_inputs: bool = False,
         **kwargs: Any,
     ) -> None:
         """``clock_ns`` replaces the node clock [ns] (tests drive the cycle by hand with it)."""
@@ -214,7 +192,7 @@ class WholeBodyControllerNode(Node):
         self.qp_failures = 0
         self.zero_cycles = 0
         self.good_cycles = 0
-        self._create_interfaces()
+        self._create_interfaces(direct_state_inputs)
         self._start_loop()
 
     def _node_clock_ns(self) -> Callable[[], int]:
@@ -236,8 +214,9 @@ class WholeBodyControllerNode(Node):
             self.get_logger().warning(f"thread_priority: {self.loop.priority_error}; the "
                                       "control thread runs under the normal scheduler")
 
-    def _create_interfaces(self) -> None:
-        """Publishers, subscriptions, services and timers (see the module docstring)."""
+    def _create_interfaces(self, direct_state_inputs: bool) -> None:
+        """Publishers, subscriptions (no state topics for ``direct_state_inputs``), services and
+        timers (see the module docstring)."""
         # Commands are published as serialized bytes (phri_common.cdr): same messages, without
         # building three message objects per cycle.
         self._arm_encoders = (Float64ArrayEncoder(",".join(self.left_joints), 6),
@@ -260,8 +239,9 @@ class WholeBodyControllerNode(Node):
              self._contact_handler(link), CONTACT_QOS)
             for link in self.links
         ]
-        inputs += [(JointState, "/joint_states", self.on_joints_bytes, qos_profile_sensor_data),
-                   (Odometry, "/odom", self.on_odom_bytes, qos_profile_sensor_data)]
+        if not direct_state_inputs:
+            inputs += [(JointState, "/joint_states", self.on_joints_bytes, qos_profile_sensor_data),
+                       (Odometry, "/odom", self.on_odom_bytes, qos_profile_sensor_data)]
         inputs += [(Float64, f"{arm}/{SPEED_SCALING_TOPIC}", self._scaling_handler(arm),
                     SCALING_QOS) for arm in ARM_COMMAND_SLICES]
         for msg_type, topic, handler, qos in inputs:

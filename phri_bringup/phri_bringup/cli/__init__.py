@@ -1,0 +1,1 @@
+"""The ``phri`` command and the in-process session it runs."""

@@ -1,0 +1,1 @@
+"""The node graph (pure): what launch files and sessions start, parameter files, preflight."""

@@ -1,0 +1,1 @@
+"""Offline reports: figure panels, the paper's figures, the following report, video."""

@@ -1,0 +1,408 @@
+"""MP4 video of a recorded run, rendered offscreen with MuJoCo (``MUJOCO_GL=egl``).
+
+The video is rendered *from the recording* (joint states, odometry, the person's poses, the
+estimated contacts and the waist link's task state), so any recording can be turned into a video
+afterwards, and a run is not slowed by rendering. Each frame shows the simulation scene at that
+instant (the checkered floor of :mod:`phri_sim.world.scene` shows motion and turns) and adds, as
+visual geoms in the rendered scene only (no physics):
+
+* a **human figure** around the recorded person poses (:mod:`phri_bringup.reports.video_figure`):
+  head, neck, shoulders, arms reaching the recorded hands, hips and legs that step;
+* the **estimated contact force** of every touched skin link as a red arrow whose tail is at the
+  estimated contact centre on the skin and which points along the push (length
+  :data:`FORCE_SCALE` per newton), so it shows through and beyond the link;
+* an **overlay** (:mod:`phri_bringup.reports.video_overlay`): sim time, the waist link's force and
+  priority ψ, the accumulated turn of robot and partner.
+
+The camera (:mod:`phri_bringup.reports.video_camera`) frames the couple and turns with it, smoothed.
+Frames are encoded by the ffmpeg binary of ``imageio-ffmpeg`` (H.264, yuv420p: plays in
+browsers and every player).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from phri_bringup.graph.nodes import CONTROLLER, SKIN_LINKS
+from phri_bringup.observer.bag import find_recording, ros_type
+from phri_bringup.reports.video_camera import CameraRig, SmoothCamera, couple_view
+from phri_bringup.reports.video_figure import DIMS, Feet, Skeleton, bones, skeleton
+from phri_bringup.reports.video_overlay import draw_overlay, overlay_lines
+from phri_common.planar import yaw_from_quaternion
+from phri_description.description import BASE_JOINTS
+
+FloatArray = NDArray[np.float64]
+
+FORCE_SCALE = 0.035
+"""Arrow length per newton of contact force [m/N]."""
+WAIST_LINK = "left_forearm_link"
+"""The link whose force and ψ the overlay shows (the waltz's waist hold, VI-B)."""
+FIGURE_RGBA = (0.85, 0.65, 0.55, 1.0)
+"""Colour of the figure's skin (the person's geoms' default colour)."""
+CLOTHES_RGBA = (0.25, 0.25, 0.35, 1.0)
+"""Colour of the figure's legs and shoes."""
+CHANGE_THRESHOLD = 12
+"""A pixel "changes" when a colour channel differs by more than this (of 255) — above the
+H.264 coding noise (:func:`changing_pixel_share`)."""
+STATE_TOPIC = f"/{CONTROLLER}/state/{WAIST_LINK}"
+
+
+class VideoUnavailable(RuntimeError):
+    """Offscreen rendering or encoding is not possible here (the message says why)."""
+
+
+@dataclass(frozen=True)
+class VideoOptions:
+    """Frame size [px], frame rate [1/s], playback speed (1 = real time), camera rig, overlay."""
+
+    width: int = 1024
+    height: int = 576
+    fps: float = 25.0
+    speed: float = 1.0
+    camera: CameraRig = field(default_factory=CameraRig)
+    overlay: bool = True
+
+
+@dataclass
+class Track:
+    """A recorded signal as sample times [s] and values; :meth:`at` = latest sample ≤ t."""
+
+    t: FloatArray
+    v: list[Any]
+
+    def at(self, t: float) -> Any:
+        i = int(np.searchsorted(self.t, t, side="right")) - 1
+        return self.v[i] if i >= 0 else None
+
+
+Tracks = dict[str, Track]
+"""Recorded signals by topic: ``/joint_states`` (names, positions), ``/odom`` (x, y, yaw),
+``/sim/person/poses`` (list of ((x, y, z), (w, x, y, z))), ``/contacts/<link>``
+(:class:`~phri_common.contact.ContactState`), :data:`STATE_TOPIC` (ψ)."""
+
+
+def _decode(topic: str, msg: Any) -> Any:
+    from phri_common.contact import msg_to_contact
+
+    if topic == "/joint_states":
+        return (list(msg.name), list(msg.position))
+    if topic == "/odom":
+        p, q = msg.pose.pose.position, msg.pose.pose.orientation
+        return (p.x, p.y, yaw_from_quaternion(q.w, q.x, q.y, q.z))
+    if topic == "/sim/person/poses":
+        return [((p.position.x, p.position.y, p.position.z),
+                 (p.orientation.w, p.orientation.x, p.orientation.y, p.orientation.z))
+                for p in msg.poses]
+    if topic == STATE_TOPIC:
+        from wholebody_controller.messages import msg_to_task_state
+
+        return msg_to_task_state(msg)["psi"]
+    return msg_to_contact(msg)
+
+
+def read_tracks(path: Path) -> Tracks:
+    """The signals a video needs, from the recording at ``path`` (:data:`Tracks`)."""
+    from rclpy.serialization import deserialize_message
+    from rosbags.highlevel import AnyReader
+
+    rows: dict[str, list[tuple[float, object]]] = {}
+    topics = {"/joint_states", "/odom", "/sim/person/poses", STATE_TOPIC,
+              *(f"/contacts/{link}" for link in SKIN_LINKS)}
+    with AnyReader([path]) as reader:
+        conns = [c for c in reader.connections if c.topic in topics]
+        for conn, stamp, raw in reader.messages(connections=conns):
+            msg = deserialize_message(raw, ros_type(conn.msgtype))
+            rows.setdefault(conn.topic, []).append((stamp * 1e-9, _decode(conn.topic, msg)))
+    return {k: Track(np.array([r[0] for r in v]), [r[1] for r in v]) for k, v in rows.items()}
+
+
+def render_video(
+    recording: str | Path,
+    output: str | Path,
+    options: VideoOptions | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> Path:
+    """Render ``recording`` into the MP4 file ``output``; return its path.
+
+    Raises:
+        VideoUnavailable: no offscreen OpenGL (set ``MUJOCO_GL=egl`` with Mesa's EGL, or
+            ``osmesa``) or no ffmpeg; the message says which.
+        FileNotFoundError: no recording.
+    """
+    opts = options or VideoOptions()
+    tracks = read_tracks(find_recording(recording))
+    if "/joint_states" not in tracks:
+        raise ValueError(f"{recording}: the recording has no /joint_states to render")
+    try:
+        import imageio_ffmpeg
+
+        imageio_ffmpeg.get_ffmpeg_exe()
+    except Exception as err:
+        raise VideoUnavailable(f"no ffmpeg for MP4 encoding: {err}") from err
+    frames = FrameRenderer(tracks, opts)
+    out = Path(output)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    writer = imageio_ffmpeg.write_frames(str(out), (opts.width, opts.height), fps=opts.fps,
+                                         codec="libx264", macro_block_size=16,
+                                         ffmpeg_log_level="error")
+    writer.send(None)
+    try:
+        n = frames.n_frames
+        for i, frame in enumerate(frames):
+            writer.send(frame)
+            if progress is not None:
+                progress(i + 1, n)
+    finally:
+        writer.close()
+        frames.close()
+    return out
+
+
+class FrameRenderer:
+    """Frames of a video of ``tracks`` (iterate it), rendered offscreen (module docstring)."""
+
+    def __init__(self, tracks: Tracks, opts: VideoOptions) -> None:
+        os.environ.setdefault("MUJOCO_GL", "egl")  # effective if MuJoCo is not imported yet
+        import mujoco
+
+        from phri_sim.world.person_body import PERSON_PARTS
+        from phri_sim.world.scene import scene_spec
+
+        self.tracks, self.opts = tracks, opts
+        model = scene_spec().compile()
+        model.vis.global_.offwidth = max(opts.width, int(model.vis.global_.offwidth))
+        model.vis.global_.offheight = max(opts.height, int(model.vis.global_.offheight))
+        # Multisampled offscreen buffers make reading pixels ~20× slower in Mesa's software GL.
+        model.vis.quality.offsamples = 0
+        model.vis.headlight.ambient[:] = 0.45
+        model.vis.headlight.diffuse[:] = 0.55
+        self.model, self.data = model, mujoco.MjData(model)
+        try:
+            self.renderer = mujoco.Renderer(model, opts.height, opts.width)
+        except Exception as err:  # GL backends raise many types
+            raise VideoUnavailable(
+                f"offscreen rendering unavailable ({type(err).__name__}: {err}); set "
+                "MUJOCO_GL=egl (Mesa EGL) or MUJOCO_GL=osmesa and try again") from err
+        self.joint_adr = {model.joint(j).name: int(model.jnt_qposadr[j])
+                          for j in range(model.njnt)}
+        names = [p.name for p in PERSON_PARTS]
+        self.part_adr = [self.joint_adr[n + "_free"] for n in names]
+        self.hand_index = [names.index(n) if n in names else None
+                           for n in ("person_left_hand", "person_right_hand")]
+        self.hand_geoms = [[g for g in range(model.ngeom) if model.geom_bodyid[g]
+                            == model.body(names[i]).id] if i is not None else []
+                           for i in self.hand_index]
+        self.hand_rgba = model.geom_rgba.copy()
+        self.camera = mujoco.MjvCamera()
+        self.camera.type = mujoco.mjtCamera.mjCAMERA_FREE
+        self.smooth = SmoothCamera(opts.camera.tau)
+        self.feet = Feet()
+        self.facing_offset: float | None = None
+        self.turns = _Unwrapper(), _Unwrapper()
+        js = tracks["/joint_states"].t
+        self.t0 = float(js[0])
+        self.n_frames = max(1, int((float(js[-1]) - self.t0) * opts.fps / opts.speed))
+
+    def close(self) -> None:
+        """Release the GL context."""
+        self.renderer.close()
+
+    def __iter__(self) -> Iterator[NDArray[np.uint8]]:
+        for i in range(self.n_frames):
+            yield self.frame(self.t0 + i * self.opts.speed / self.opts.fps)
+
+    def frame(self, t: float) -> NDArray[np.uint8]:
+        """The frame at recording time ``t`` [s] (call with increasing ``t``)."""
+        import mujoco
+
+        base, poses = self._set_state(t)
+        mujoco.mj_kinematics(self.model, self.data)
+        partner = None if not poses else np.array(poses[0][0])
+        robot_xy = np.array(base[:2]) if base is not None else np.zeros(2)
+        view = self.smooth.update(couple_view(robot_xy, None if partner is None else partner[:2],
+                                              base[2] if base is not None else 0.0,
+                                              self.opts.camera), self.opts.speed / self.opts.fps)
+        self.camera.lookat[:] = view.lookat
+        self.camera.azimuth, self.camera.elevation = view.azimuth, view.elevation
+        self.camera.distance = view.distance
+        figure = self._figure(t, poses, robot_xy) if poses else None
+        self.renderer.update_scene(self.data, self.camera)
+        scene = self.renderer.scene
+        for flag in (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION,
+                     mujoco.mjtRndFlag.mjRND_SKYBOX):
+            scene.flags[flag] = False
+        partner_yaw = None
+        if figure is not None:
+            partner_yaw = figure[1]
+            _add_figure_geoms(scene, figure[0], float(poses[0][0][2]))
+        _add_force_arrows(self.model, self.data, scene, self.tracks, t)
+        image = np.ascontiguousarray(self.renderer.render())
+        if not self.opts.overlay:
+            return image
+        return draw_overlay(image, self._overlay(t, base, partner_yaw))
+
+    def _set_state(self, t: float) -> tuple[Any, Any]:
+        """Joint, base and person poses at ``t`` into ``data``; return (odom, poses)."""
+        qpos, adr = self.data.qpos, self.joint_adr
+        js = self.tracks["/joint_states"].at(t)
+        if js is not None:
+            for name, value in zip(js[0], js[1], strict=False):
+                if name in adr:
+                    qpos[adr[name]] = value
+        base = self.tracks["/odom"].at(t) if "/odom" in self.tracks else None
+        if base is not None:
+            for name, value in zip(BASE_JOINTS, base, strict=True):
+                qpos[adr[name]] = value
+        track = self.tracks.get("/sim/person/poses")
+        poses = track.at(t) if track is not None else None
+        for a, (pos, quat) in zip(self.part_adr, poses or [], strict=False):
+            qpos[a:a + 3] = pos
+            qpos[a + 3:a + 7] = quat
+        return base, poses
+
+    def _figure(self, t: float, poses: list[Any], robot_xy: FloatArray) -> tuple[Skeleton, float]:
+        """The human figure at ``t`` and the partner's facing [rad]; parked hands hidden."""
+        torso = np.array(poses[0][0])
+        yaw = yaw_from_quaternion(*poses[0][1])
+        if self.facing_offset is None:  # at the start of the hold the partner faces the robot
+            to_robot = robot_xy - torso[:2]
+            facing = math.atan2(to_robot[1], to_robot[0]) if np.linalg.norm(to_robot) > 0.05 \
+                else yaw
+            self.facing_offset = facing - yaw
+        facing = yaw + self.facing_offset
+        hands: list[FloatArray | None] = [None if i is None or i >= len(poses)
+                                          else np.array(poses[i][0]) for i in self.hand_index]
+        feet = self.feet.update(t, torso[:2], facing)
+        sk = skeleton(torso, facing, (hands[0], hands[1]), feet)
+        self._hide_unused_hands(sk.joints, hands)
+        return sk, facing
+
+    def _hide_unused_hands(self, joints: dict[str, FloatArray],
+                           hands: list[FloatArray | None]) -> None:
+        """Parked hand geoms (far from the figure's wrist) are made invisible in this frame."""
+        for side, geoms, hand in zip(("left", "right"), self.hand_geoms, hands, strict=True):
+            used = hand is not None and np.linalg.norm(joints[f"{side}_wrist"] - hand) < 0.05
+            for g in geoms:
+                self.model.geom_rgba[g, 3] = self.hand_rgba[g, 3] if used else 0.0
+
+    def _overlay(self, t: float, base: Any, partner_yaw: float | None) -> list[str]:
+        track = self.tracks.get(f"/contacts/{WAIST_LINK}")
+        contact = track.at(t) if track is not None else None
+        force = None
+        if contact is not None:
+            force = float(np.linalg.norm(contact.force)) if contact.in_contact else 0.0
+        psi_track = self.tracks.get(STATE_TOPIC)
+        psi = psi_track.at(t) if psi_track is not None else None
+        robot_turn = None if base is None else self.turns[0].update(base[2])
+        partner_turn = None if partner_yaw is None else self.turns[1].update(partner_yaw)
+        return overlay_lines(t - self.t0, force, psi, robot_turn, partner_turn, WAIST_LINK)
+
+
+def _add_figure_geoms(scene: Any, sk: Skeleton, waist_z: float) -> None:
+    """Capsules and spheres of the figure: skin colour, legs and feet in clothes colour."""
+    skin = np.array(FIGURE_RGBA, dtype=np.float32)
+    cloth = np.array(CLOTHES_RGBA, dtype=np.float32)
+    for a, b, r in bones(sk):
+        leg = a[2] < waist_z - 0.05 and b[2] < waist_z - 0.05
+        _add_geom(scene, "capsule", a, b, r, cloth if leg else skin)
+    j = sk.joints
+    _add_geom(scene, "sphere", j["head"], j["head"], DIMS.head_radius, skin)
+    _add_geom(scene, "sphere", j["nose"], j["nose"], 0.03, skin)
+    _add_geom(scene, "sphere", j["hair"], j["hair"], 0.95 * DIMS.head_radius, cloth)
+    for side in ("left", "right"):
+        _add_geom(scene, "sphere", j[f"{side}_wrist"], j[f"{side}_wrist"], 0.042, skin)
+
+
+class _Unwrapper:
+    """Accumulated turn [deg] since the first sample of a heading signal [rad]."""
+
+    def __init__(self) -> None:
+        self.first: float | None = None
+        self.last = 0.0
+        self.total = 0.0
+
+    def update(self, yaw: float) -> float:
+        if self.first is None:
+            self.first = self.last = yaw
+        step = (yaw - self.last + math.pi) % (2.0 * math.pi) - math.pi
+        self.total += step
+        self.last = yaw
+        return math.degrees(self.total)
+
+
+def _add_geom(scene: Any, kind: str, a: FloatArray, b: FloatArray, radius: float,
+              rgba: NDArray[np.float32]) -> None:
+    """Append a capsule a → b, a sphere at a, or an arrow a → b of ``radius`` [m] to the
+    rendered scene (skipped when the scene is full)."""
+    import mujoco
+
+    if scene.ngeom >= scene.maxgeom:
+        return
+    types = {"capsule": mujoco.mjtGeom.mjGEOM_CAPSULE, "sphere": mujoco.mjtGeom.mjGEOM_SPHERE,
+             "arrow": mujoco.mjtGeom.mjGEOM_ARROW}
+    geom = scene.geoms[scene.ngeom]
+    mujoco.mjv_initGeom(geom, types[kind], np.full(3, radius), np.asarray(a, dtype=float),
+                        np.eye(3).ravel(), rgba)
+    if kind != "sphere":
+        mujoco.mjv_connector(geom, types[kind], radius, np.asarray(a, dtype=float),
+                             np.asarray(b, dtype=float))
+    scene.ngeom += 1
+
+
+def _add_force_arrows(model: Any, data: Any, scene: Any, tracks: Tracks, t: float) -> None:
+    """Red arrows for the estimated contact forces: tail at the estimated contact centre on the
+    skin, pointing along the push; a dot marks the centre."""
+    red = np.array([0.9, 0.1, 0.1, 1.0], dtype=np.float32)
+    for link in SKIN_LINKS:
+        track = tracks.get(f"/contacts/{link}")
+        contact = track.at(t) if track is not None else None
+        if contact is None or not getattr(contact, "in_contact", False):
+            continue
+        body = model.body(link).id
+        rot = data.xmat[body].reshape(3, 3)
+        centre = rot @ np.asarray(contact.center) + data.xpos[body]
+        force = rot @ np.asarray(contact.force)
+        if np.linalg.norm(force) < 1e-3:
+            continue
+        _add_geom(scene, "arrow", centre, centre + FORCE_SCALE * force, 0.02, red)
+        _add_geom(scene, "sphere", centre, centre, 0.022, red)
+
+
+def changing_pixel_share(frames: Iterable[NDArray[np.uint8]], fps: float,
+                         threshold: int = CHANGE_THRESHOLD) -> float:
+    """Mean share of pixels [0–1] that change within one second: every frame is compared with
+    the frame ``fps`` frames (1 s) later; a pixel changes when any channel differs by more than
+    ``threshold``. 0 for a video shorter than a second."""
+    lag = max(1, round(fps))
+    window: list[NDArray[np.uint8]] = []
+    shares: list[float] = []
+    for frame in frames:
+        window.append(frame)
+        if len(window) > lag:
+            old = window.pop(0)
+            diff = np.abs(frame.astype(np.int16) - old.astype(np.int16)).max(axis=-1)
+            shares.append(float(np.mean(diff > threshold)))
+    return float(np.mean(shares)) if shares else 0.0
+
+
+def video_frames(path: str | Path) -> tuple[Iterator[NDArray[np.uint8]], float]:
+    """(decoded RGB frames, frame rate [1/s]) of an MP4 file (ffmpeg of imageio-ffmpeg)."""
+    import imageio_ffmpeg
+
+    reader = imageio_ffmpeg.read_frames(str(path))
+    meta = next(reader)
+    w, h = meta["size"]
+
+    def frames() -> Iterator[NDArray[np.uint8]]:
+        for raw in reader:
+            yield np.frombuffer(raw, dtype=np.uint8).reshape(h, w, 3)
+
+    return frames(), float(meta["fps"])

@@ -1,0 +1,1 @@
+"""The paper's experiments as scripted scenarios and the person's choreography (pure)."""

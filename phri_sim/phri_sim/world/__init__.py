@@ -1,0 +1,1 @@
+"""The simulated world (pure, no rclpy): MuJoCo robot, person, skins and their sensors."""
