@@ -392,11 +392,12 @@ def test_forged_header_is_abandoned_and_every_frame_keeps_its_own_stamp(  # type
     assert np.all(np.abs(periods - np.round(periods)) < 0.001) and np.all(periods >= 0.99)
     gaps = int(np.sum(np.round(periods) - 1))
     # Each message carries its own frame's stamp: the published stamps are the board clock's,
-    # in order (a subsequence: DDS may drop an array on a loaded machine), all distinct.
+    # in order (a subsequence: DDS may drop an array on a loaded machine). Not necessarily all
+    # distinct: while its offset estimate still falls, BoardClock stamps the frames of one
+    # chunk with the chunk's arrival time (seen under load; board_clock.py's docstring).
     published = [msg_to_taxels(m).stamp_ns for m in listener.msgs]
     given = iter([s for _, s in stamped])
     assert all(stamp in given for stamp in published), "a stamp the board clock never gave"
-    assert len(set(published)) == len(published)
     # dropped counts sequence gaps of this board's accepted frames only: the rogue frames
     # (random sequence numbers, wrong size) are size mismatches, not drops.
     assert boards[0].size_mismatches >= 5
