@@ -11,8 +11,12 @@ factory zero, and its published force is ``gain Â· (mean of the last W counts âˆ
 bench computes that mean for every frame the board sent and matches each received message to
 the frame whose window it closes (messages after a lost frame stay unmatched and are counted).
 
+The received rate [Hz] is printed per board; ``--taxel-rate HZ`` sets the drivers'
+``taxel_publish_rate_hz`` (the composed deployment's throttled taxel topics) to measure that
+rate limit on a real machine (the tests check it on a fake clock only).
+
 Run: ``.venv/bin/python bench/bench_skin_driver.py [--duration 10] [--boards 3]
-[--taxels 10000] [--rate 500]``.
+[--taxels 10000] [--rate 500] [--taxel-rate 0]``.
 """
 
 from __future__ import annotations
@@ -87,6 +91,8 @@ def main() -> int:
     p.add_argument("--taxels", type=int, default=10_000)
     p.add_argument("--rate", type=float, default=500.0, help="[Hz]")
     p.add_argument("--window", type=int, default=10, help="driver filter_window [frames]")
+    p.add_argument("--taxel-rate", type=float, default=0.0,
+                   help="driver taxel_publish_rate_hz [Hz] (0 = every frame)")
     args = p.parse_args()
     print(load_line())
 
@@ -117,6 +123,7 @@ def main() -> int:
             "-p", "board_ids:=[0]",
             "-p", f"layout_files:=['{tmp / f'patch{i}.yaml'}']",
             "-p", f"filter_window:={args.window}",
+            "-p", f"taxel_publish_rate_hz:={args.taxel_rate}",
         ]))
 
     import rclpy
@@ -238,7 +245,8 @@ def main() -> int:
         all_lat.append(lat_a)
         all_stamp_lat.append(stamp_a)
         print(f"  board {i}: sent {n_sent}, received {n_recv} "
-              f"({100.0 * n_recv / max(n_sent, 1):.1f} %), sequence gaps seen by the driver "
+              f"({100.0 * n_recv / max(n_sent, 1):.1f} %, {n_recv / elapsed:.0f} Hz), "
+              f"sequence gaps seen by the driver "
               f"{dropped_by_driver.get(i, 'n/a')}, board schedule slips {slips} "
               f"(whole run {late}), "
               f"unmatched {unmatched}")

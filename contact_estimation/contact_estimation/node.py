@@ -330,6 +330,11 @@ class ContactEstimationNode(Node):
         return tuple(self._patch_links)
 
     @property
+    def received_frames(self) -> dict[str, int]:
+        """Frames received per patch since start-up (refused ones included)."""
+        return dict(self._received)
+
+    @property
     def refused_frames(self) -> dict[str, int]:
         """Refused frames per patch since start-up."""
         return dict(self._refused)

@@ -59,10 +59,12 @@ def test_ctrl_c_stops_with_zero_velocity_and_leaves_no_process(tmp_path: Path) -
     )
     assert proc.stderr is not None
     deadline = time.monotonic() + 120
-    for line in proc.stderr:  # wait until it is simulating
-        if "running lock-step" in line or time.monotonic() > deadline:
+    progress = ""
+    for line in proc.stderr:  # wait until it has simulated 5 s (its first progress line)
+        if "sim t =" in line or time.monotonic() > deadline:
+            progress = line
             break
-    time.sleep(2.0)
+    assert "sim t =" in progress, progress
     proc.send_signal(signal.SIGINT)
     rest = proc.stderr.read()
     code = proc.wait(timeout=60)

@@ -112,7 +112,9 @@ def _assert_all_start_and_stop(proc: subprocess.Popen, pids: Path, expected: lis
         assert sorted(started.values()) == expected
         proc.send_signal(signal.SIGINT)
         proc.communicate(timeout=60)
-        time.sleep(0.5)
+        deadline = time.monotonic() + 60  # bounds a stalled machine only
+        while any(_alive(pid) for pid in started) and time.monotonic() < deadline:
+            time.sleep(0.05)
         assert [exe for pid, exe in started.items() if _alive(pid)] == []
     finally:
         if proc.poll() is None:

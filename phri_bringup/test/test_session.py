@@ -5,6 +5,7 @@ leaves every node running. (The launch_testing twins are in test_launch_sim.py.)
 from __future__ import annotations
 
 import threading
+import time
 from pathlib import Path
 from typing import Any
 
@@ -68,11 +69,14 @@ def recorded_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Any]:
         executor = SingleThreadedExecutor(context=context)
         executor.add_node(viewer)
 
+        deadline: list[float] = []
+
         def look(t: float, duration: float) -> None:  # once per simulated second
+            """Spin until the URDF came (the sim waits meanwhile); 60 s in all bound a stalled
+            machine only."""
             del t, duration
-            for _ in range(20):
-                if urdfs:
-                    break
+            deadline[:] = deadline or [time.monotonic() + 60.0]
+            while not urdfs and time.monotonic() < deadline[0]:
                 executor.spin_once(timeout_sec=0.05)
 
         result = run_session("centring", RunOptions(duration=2.5), context=context, progress=look,

@@ -21,6 +21,8 @@ from skin_driver.layout import rectangular_patch, save_layout
 from skin_driver.sim_board import PtyEndpoint, SimBoard, press_pattern, run_boards
 
 RATE = 500.0
+WAIT_S = 60.0
+"""Longest wait for something that must happen (a stalled machine); never a measured time."""
 
 
 def driver_params(port: Path, layout_file: Path, publish_hz: float) -> list[Parameter]:
@@ -37,6 +39,10 @@ ESTIMATOR = [Parameter("patches", value=["forearm"]),
 def test_every_frame_reaches_the_estimator_while_the_taxel_topic_is_throttled(
     ros_context: Any, tmp_path: Path
 ) -> None:
+    """Every frame the driver calibrates reaches the composed estimator directly, before the
+    next one (a listener after the estimator's sees the estimator's count equal its own), while
+    the taxel topic is published at the driver's taxel_publish_rate_hz (that rate limit on a
+    fake clock: skin_driver's test_node; the rates on a real machine: bench_chain)."""
     layout = rectangular_patch("forearm", "forearm_link", 6, 6)
     save_layout(layout, tmp_path / "forearm.yaml")
     port = tmp_path / "port"
@@ -45,36 +51,47 @@ def test_every_frame_reaches_the_estimator_while_the_taxel_topic_is_throttled(
     board = threading.Thread(target=run_boards, daemon=True, args=(
         lambda: PtyEndpoint(port), [(SimBoard(4, layout, seed=0), press)], RATE, stop))
     board.start()
-    while not port.exists():
+    deadline = time.monotonic() + WAIT_S
+    while not port.exists() and time.monotonic() < deadline:
         time.sleep(0.01)
     nodes = compose(["driver"], context=ros_context, overrides={
         "driver": driver_params(port, tmp_path / "forearm.yaml", 50.0),
         "contact_estimation": ESTIMATOR})
+    estimation, driver = nodes
+    seen: list[tuple[int, int]] = []  # (frames this listener had, frames the estimator had)
+
+    def after_the_estimator(_patch: str, _taxels: Any) -> None:
+        seen.append((len(seen) + 1, estimation.received_frames["forearm"]))
+
+    driver.add_frame_listener(after_the_estimator)  # type: ignore[attr-defined]
     peer = Node("peer", context=ros_context)
     states: list[PointCloud2] = []
-    taxels: list[float] = []
+    taxels: list[PointCloud2] = []
     peer.create_subscription(PointCloud2, "contacts/forearm_link", states.append, 100)
-    peer.create_subscription(PointCloud2, "skin/forearm/taxels",
-                             lambda _m: taxels.append(time.monotonic()), 100)
+    peer.create_subscription(PointCloud2, "skin/forearm/taxels", taxels.append, 100)
     executor = SingleThreadedExecutor(context=ros_context)
     for node in [*nodes, peer]:
         executor.add_node(node)
     try:
-        assert spin_until(executor, lambda: len(states) >= 50, timeout_s=15.0)
-        s0, t0, start = len(states), len(taxels), time.monotonic()
-        spin_until(executor, lambda: time.monotonic() - start > 2.0, timeout_s=3.0)
-        elapsed = time.monotonic() - start
-        state_rate, taxel_rate = (len(states) - s0) / elapsed, (len(taxels) - t0) / elapsed
-        assert state_rate >= 0.6 * RATE, f"contact states at {state_rate:.0f} Hz"
-        assert 25.0 <= taxel_rate <= 55.0, f"taxel arrays at {taxel_rate:.0f} Hz"
+        assert spin_until(executor, lambda: len(states) >= 200 and bool(taxels),
+                          timeout_s=WAIT_S)
+        frames = list(seen)
+        assert len(frames) >= 200
+        # Each frame reached the estimator just before this listener: its count rose by one
+        # per frame (offset: frames it had before this listener was added; none on a quiet
+        # machine, where the 100 tare frames outlast that).
+        offset = frames[0][1] - frames[0][0]
+        assert offset >= 0 and all(theirs - mine == offset for mine, theirs in frames)
+        assert estimation.refused_frames["forearm"] == 0
         state = msg_to_contact(states[-1])
         assert state.in_contact and state.link == "forearm_link"
         assert float(np.linalg.norm(state.force)) == pytest.approx(4.0, abs=0.05)
+        assert driver.get_parameter("taxel_publish_rate_hz").value == 50.0
         # The estimator does not also take the (throttled) topic: only the peer listens.
         assert nodes[1].count_subscribers("skin/forearm/taxels") == 1
     finally:
         stop.set()
-        board.join(5)
+        board.join(WAIT_S)
         for node in [peer, *nodes]:
             node.destroy_node()
 

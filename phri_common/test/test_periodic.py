@@ -53,7 +53,9 @@ class FakeTime:
         self.now += seconds
 
 
-def run_cycles(loop: PeriodicThread, cycles: int, timeout: float = 5.0) -> None:
+def run_cycles(loop: PeriodicThread, cycles: int, timeout: float = 60.0) -> None:
+    """Run ``loop`` (on a fake clock: it never really sleeps) until it has run ``cycles``
+    cycles or ended; ``timeout`` [s] only bounds the wait on a stalled machine."""
     loop.start()
     deadline = time.monotonic() + timeout
     while loop.running and loop.cycles < cycles and time.monotonic() < deadline:
@@ -99,13 +101,47 @@ def test_an_error_in_a_cycle_reaches_on_error_and_ends_the_loop() -> None:
     assert not loop.running
 
 
-def test_stop_ends_a_real_time_loop_promptly() -> None:
+def test_stop_ends_a_real_time_loop() -> None:
+    """On the real clock and sleep: the loop runs, and stop() ends its thread (the waits only
+    bound a stalled machine; how soon is the fake-clock test below)."""
     ran = threading.Event()
     loop = PeriodicThread(0.002, ran.set, lambda err: None)
     loop.start()
-    assert ran.wait(2.0)
-    assert loop.stop(timeout=1.0) and not loop.running
+    assert ran.wait(60.0)
+    assert loop.stop(timeout=60.0) and not loop.running
     assert loop.cycles > 0
+
+
+def test_a_stop_during_a_cycle_or_a_sleep_ends_the_loop_before_another_cycle() -> None:
+    """stop() asked for while a cycle runs: that cycle is the last; asked for while the loop
+    sleeps to its deadline: no cycle runs after the sleep."""
+    fake = FakeTime()
+    calls = [0]
+    during_cycle: PeriodicThread
+
+    def cycle() -> None:
+        calls[0] += 1
+        if calls[0] == 3:
+            during_cycle.stop()
+
+    during_cycle = PeriodicThread(0.002, cycle, lambda err: None, clock=fake.clock,
+                                  sleep=fake.sleep)
+    run_cycles(during_cycle, 100)
+    assert calls[0] == 3 and during_cycle.cycles == 3 and not during_cycle.running
+
+    fake = FakeTime()
+    calls[0] = 0
+    during_sleep: PeriodicThread
+
+    def sleep(seconds: float) -> None:
+        fake.sleep(seconds)
+        if len(fake.sleeps) == 3:
+            during_sleep.stop()
+
+    during_sleep = PeriodicThread(0.002, lambda: calls.__setitem__(0, calls[0] + 1),
+                                  lambda err: None, clock=fake.clock, sleep=sleep)
+    run_cycles(during_sleep, 100)
+    assert calls[0] == 2 and during_sleep.cycles == 2 and not during_sleep.running
 
 
 def test_bad_period_is_refused_naming_it() -> None:
@@ -121,17 +157,17 @@ def test_a_refused_priority_is_reported_and_the_loop_still_runs() -> None:
     ran = threading.Event()
     refused = PeriodicThread(0.002, ran.set, lambda err: None, priority=40, set_priority=refuse)
     refused.start()
+    assert ran.wait(60.0)  # the priority is settled before the first cycle
     assert refused.priority_error is not None and "priority 40 refused" in refused.priority_error
-    assert ran.wait(2.0)
-    refused.stop()
+    assert refused.stop(timeout=60.0)
     granted = PeriodicThread(0.002, lambda: None, lambda err: None, priority=10,
                              set_priority=asked.append)
     granted.start()
-    granted.stop()
+    assert granted.stop(timeout=60.0)  # the thread asks for its priority before anything else
     assert asked == [10] and granted.priority_error is None
     normal = PeriodicThread(0.002, lambda: None, lambda err: None, set_priority=asked.append)
     normal.start()
-    normal.stop()
+    assert normal.stop(timeout=60.0)
     assert asked == [10]  # priority 0: the scheduler is left alone
     with pytest.raises(ValueError, match=r"priority must be in \[0, 99\], got 100"):
         PeriodicThread(0.002, lambda: None, lambda err: None, priority=100)

@@ -16,6 +16,7 @@ from __future__ import annotations
 import contextlib
 import sys
 import time
+from collections.abc import Callable
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -63,10 +64,17 @@ def guard_config_from_values(values: dict[str, ParamValue]) -> BaseGuardConfig:
 
 
 class BaseGuardNode(Node):
-    """Limits and staleness stop for the mobile base's velocity command."""
+    """Limits and staleness stop for the mobile base's velocity command.
 
-    def __init__(self, **kwargs: Any) -> None:
+    Args:
+        clock: monotonic clock [s] that stamps arriving twists and judges their age (tests
+            replace it).
+        kwargs: passed to ``rclpy.node.Node`` (``context``, ``parameter_overrides`` …).
+    """
+
+    def __init__(self, clock: Callable[[], float] = time.monotonic, **kwargs: Any) -> None:
         super().__init__("base_guard", **kwargs)
+        self._mono = clock
         self._values = declare_parameters(self, PARAMS, on_change=self._on_change)
         self._guard = BaseGuard(guard_config_from_values(self._values))
         self._stamped = bool(self._values["output_stamped"])
@@ -94,7 +102,7 @@ class BaseGuardNode(Node):
 
     def _on_twist(self, msg: Twist) -> None:
         refused_before = self._guard.counters.refused
-        self._send(self._guard.command(twist_to_tuple(msg), time.monotonic()))
+        self._send(self._guard.command(twist_to_tuple(msg), self._mono()))
         if self._guard.counters.refused > refused_before:
             self.get_logger().warning(
                 f"refused {self._guard.counters.last_refusal}; sent zero",
@@ -102,13 +110,13 @@ class BaseGuardNode(Node):
             )
 
     def _check(self) -> None:
-        zero = self._guard.check(time.monotonic())
+        zero = self._guard.check(self._mono())
         if zero is not None:
             self._send(zero)
 
     def _publish_diagnostics(self) -> None:
         c = self._guard.counters
-        stale = self._guard.stale(time.monotonic())
+        stale = self._guard.stale(self._mono())
         level = DiagnosticStatus.WARN if stale or c.refused else DiagnosticStatus.OK
         status = DiagnosticStatus(
             level=level, name=f"{self.get_fully_qualified_name()}: base guard",

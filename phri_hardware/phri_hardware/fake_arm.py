@@ -11,7 +11,9 @@ For tests it can also misbehave the way a real host can: connect after a delay, 
 connect, or hang in connect *holding the GIL* (as ur_rtde's constructor does against a host that
 accepts and never answers) — the libc ``sleep`` is called through ``ctypes.PyDLL``, which does
 not release the GIL. With ``log_path`` every call is appended to a JSON-lines file (time, call,
-arguments, protective stop flag) that a test in another process can read.
+arguments, protective stop flag) that a test in another process can read. A protective stop is
+scripted in time after connect, or lasts while a file exists (a test in another process starts
+and ends it on cue). A test that drives the arm itself passes a fake ``clock``.
 """
 
 from __future__ import annotations
@@ -19,8 +21,9 @@ from __future__ import annotations
 import ctypes
 import json
 import math
+import os
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -41,6 +44,8 @@ class FakeArmSpec:
         initial_q: start positions [rad].
         protective_stop_at: start of a protective stop (None = never).
         protective_stop_for: its duration [s].
+        protective_stop_file: a protective stop also lasts while this file exists ("" = no
+            file).
         robot_mode, safety_mode: modes while no protective stop is scripted.
         speed_scaling: the reported speed scaling, 0–1 (the pendant's slider; the fake arm
             executes speedJ scaled by it, as the robot does).
@@ -53,6 +58,7 @@ class FakeArmSpec:
     initial_q: tuple[float, ...] = DEFAULT_Q
     protective_stop_at: float | None = None
     protective_stop_for: float = 1.0
+    protective_stop_file: str = ""
     robot_mode: int = RobotMode.RUNNING
     safety_mode: int = SafetyMode.NORMAL
     speed_scaling: float = 1.0
@@ -69,10 +75,18 @@ def _hang_holding_gil() -> None:
 
 
 class FakeArm:
-    """Kinematic UR stand-in (see the module docstring)."""
+    """Kinematic UR stand-in (see the module docstring).
 
-    def __init__(self, spec: FakeArmSpec | None = None) -> None:
+    ``clock`` [s] is the arm's monotonic time (its motion, the scripted protective stop and the
+    watchdog follow it). :attr:`speed_j_while_protective_stopped` counts speedJ calls that came
+    after the last state read showed a protective stop (the bridge knew of it); the log's
+    ``pstop`` flag is that state's too.
+    """
+
+    def __init__(self, spec: FakeArmSpec | None = None,
+                 clock: Callable[[], float] = time.monotonic) -> None:
         self.spec = spec or FakeArmSpec()
+        self._clock = clock
         self.q = list(self.spec.initial_q)
         self.qd = [0.0] * 6
         self._target = [0.0] * 6
@@ -84,19 +98,24 @@ class FakeArm:
         self._last_input = 0.0
         self._watchdog_period = 0.0
         self._was_pstopped = False
+        self._reported_pstop = False  # the protective stop flag of the state last read
         self.calls: list[tuple[str, tuple[Any, ...]]] = []
         self.speed_j_while_protective_stopped = 0
 
     # -- simulation ---------------------------------------------------------------------------
     def _protective_stopped(self, now: float) -> bool:
+        if not self._connected:
+            return False
+        if self.spec.protective_stop_file and os.path.exists(self.spec.protective_stop_file):
+            return True
         start = self.spec.protective_stop_at
-        if start is None or not self._connected:
+        if start is None:
             return False
         t = now - self._connected_at
         return start <= t < start + self.spec.protective_stop_for
 
     def _advance(self) -> None:
-        now = time.monotonic()
+        now = self._clock()
         dt = max(0.0, now - self._last_update)
         self._last_update = now
         pstop = self._protective_stopped(now)
@@ -119,15 +138,14 @@ class FakeArm:
     def _log(self, call: str, *args: Any) -> None:
         self.calls.append((call, args))
         if self.spec.log_path:
-            now = time.monotonic()
-            entry = {"t": now, "call": call, "args": [list(a) if isinstance(a, (list, tuple))
-                                                      else a for a in args],
-                     "pstop": self._protective_stopped(now)}
+            entry = {"t": self._clock(), "call": call,
+                     "args": [list(a) if isinstance(a, (list, tuple)) else a for a in args],
+                     "pstop": self._reported_pstop}
             with open(self.spec.log_path, "a", encoding="utf-8") as f:
                 f.write(json.dumps(entry) + "\n")
 
     def _input(self) -> None:
-        self._last_input = time.monotonic()
+        self._last_input = self._clock()
 
     # -- ArmInterface -------------------------------------------------------------------------
     def connect(self) -> None:
@@ -140,11 +158,11 @@ class FakeArm:
             raise ConnectionError("fake arm: connection refused")
         self._connected = True
         self._program_running = True
-        self._connected_at = self._last_update = self._last_input = time.monotonic()
+        self._connected_at = self._last_update = self._last_input = self._clock()
 
     def read_state(self) -> ArmState:
         self._advance()
-        pstop = self._protective_stopped(time.monotonic())
+        pstop = self._reported_pstop = self._protective_stopped(self._clock())
         return ArmState(
             q=tuple(self.q), qd=tuple(self.qd),
             robot_mode=self.spec.robot_mode if self._connected else RobotMode.DISCONNECTED,
@@ -159,8 +177,9 @@ class FakeArm:
         self._log("speedJ", list(qd), acceleration)
         self._advance()
         self._input()
-        if self._protective_stopped(self._last_update):
+        if self._reported_pstop:
             self.speed_j_while_protective_stopped += 1
+        if self._protective_stopped(self._last_update):
             return False
         if not self._program_running:
             return False
@@ -190,7 +209,7 @@ class FakeArm:
 
     def restart_program(self) -> bool:
         self._log("reuploadScript")
-        if self._protective_stopped(time.monotonic()):
+        if self._protective_stopped(self._clock()):
             return False
         self._program_running = True
         self._input()

@@ -65,9 +65,9 @@ def test_ground_truth_and_skin_reach_a_subscriber(ros_context: Any) -> None:
     executor.add_node(probe)
     try:
         assert spin_until(executor, lambda: node.count_subscribers(
-            "sim/contacts/left_forearm_link/wrench") > 0, timeout_s=10.0)
+            "sim/contacts/left_forearm_link/wrench") > 0, timeout_s=60.0)
         node.advance(1)
-        assert spin_until(executor, lambda: bool(wrenches) and bool(skins), timeout_s=10.0)
+        assert spin_until(executor, lambda: bool(wrenches) and bool(skins), timeout_s=60.0)
         f = wrenches[-1].wrench.force
         magnitude = (f.x**2 + f.y**2 + f.z**2) ** 0.5
         assert magnitude == pytest.approx(10.0, rel=0.15)
@@ -155,7 +155,7 @@ def test_joint_states_cover_every_moving_urdf_joint(ros_context: Any) -> None:
             node.advance(1, clock=False)
             return len(states) >= 20 and len(odoms) >= 20
 
-        assert spin_until(executor, advanced, timeout_s=20.0)
+        assert spin_until(executor, advanced, timeout_s=60.0)
         last, odom = states[-1], odoms[-1]
         assert moving <= set(last.name)
         pose = dict(zip(last.name, last.position, strict=True))

@@ -285,11 +285,14 @@ class SkinDriverNode(Node):
         node_name: str = "skin_driver",
         parameter_overrides: list[Parameter] | None = None,
         poller: PortPoller | None = None,
+        clock: Callable[[], float] = time.monotonic,
     ) -> None:
         """``poller``: read the port on this shared thread (several drivers in one process,
-        ``skin_contact_node``) instead of the node's own serial thread."""
+        ``skin_contact_node``) instead of the node's own serial thread. ``clock``: the monotonic
+        clock [s] of the silence and unframed-bytes timeouts, the publication rate limit,
+        calibration (drift, stuck taxels) and diagnostics (tests replace it)."""
         super().__init__(node_name, context=context, parameter_overrides=parameter_overrides)
-        self._poller = poller
+        self._poller, self._mono = poller, clock
         try:
             self._values = declare_parameters(self, PARAMS, on_change=self._on_change)
             v = self._values
@@ -302,24 +305,15 @@ class SkinDriverNode(Node):
             # Refused configuration: leave nothing registered with the context.
             super().destroy_node()
             raise
-        qos = QoSProfile(
-            history=HistoryPolicy.KEEP_LAST,
-            depth=int(v["qos_depth"]),
-            reliability=ReliabilityPolicy.RELIABLE,
-        )
         self._lock = threading.Lock()
         self._config = config
-        self._channels = {
-            board: _Channel.for_layout(board, layout, config, self.create_publisher(
-                PointCloud2, f"skin/{layout.patch}/taxels", qos))
-            for board, layout in layouts.items()
-        }
+        self._channels = self._make_channels(layouts, config, int(v["qos_depth"]))
         self._listeners, self._publish_period = [], _period_s(float(v["taxel_publish_rate_hz"]))
         self._url = str(v["port"])
         self._parser = FrameParser(int(v["max_taxels"]))
         self._unknown_board_frames = 0
         self._errors_at_last_diag = 0
-        self._last_diag_mono = time.monotonic()
+        self._last_diag_mono = self._mono()
         self._port_warned = False
         self._unframed_since: float | None = None  # first read without an intact frame since one
         self._unframed_bytes = 0
@@ -335,7 +329,21 @@ class SkinDriverNode(Node):
         patches = ", ".join(f"{b}→{c.layout.patch}" for b, c in self._channels.items())
         self.get_logger().info(f"reading {self._url}; boards {patches}")
 
-    @property
+    def _make_channels(self, layouts: dict[int, SkinLayout], config: CalibrationConfig,
+                       qos_depth: int) -> dict[int, _Channel]:
+        """One channel (:meth:`_Channel.for_layout`, with a reliable publisher of
+        ``qos_depth``) per board."""
+        qos = QoSProfile(
+            history=HistoryPolicy.KEEP_LAST,
+            depth=qos_depth,
+            reliability=ReliabilityPolicy.RELIABLE,
+        )
+        return {
+            board: _Channel.for_layout(board, layout, config, self.create_publisher(
+                PointCloud2, f"skin/{layout.patch}/taxels", qos))
+            for board, layout in layouts.items()
+        }
+
     def patches(self) -> tuple[str, ...]:
         """The patch names of this port's boards (from their layouts)."""
         return tuple(c.layout.patch for c in self._channels.values())
@@ -381,7 +389,7 @@ class SkinDriverNode(Node):
     def _on_data(self, chunk: bytes, arrival_ns: int) -> None:
         with self._lock:
             frames = self._parser.feed(chunk)
-            mono = time.monotonic()
+            mono = self._mono()
             if frames:
                 self._unframed_since, self._unframed_bytes = None, 0
             else:
@@ -451,7 +459,7 @@ class SkinDriverNode(Node):
 
     def _check_silence(self) -> None:
         timeout = float(self._values["silence_timeout"])
-        now = time.monotonic()
+        now = self._mono()
         unframed = self._unframed_for(now) > timeout
         if unframed and not self._unframed_warned:
             self.get_logger().warning(
@@ -513,7 +521,7 @@ class SkinDriverNode(Node):
 
     def snapshot(self) -> tuple[PortSnapshot, list[BoardSnapshot]]:
         """Current state of the port and every board (for diagnostics and tests)."""
-        now = time.monotonic()
+        now = self._mono()
         with self._lock:
             elapsed = max(now - self._last_diag_mono, 1e-6)
             self._last_diag_mono = now

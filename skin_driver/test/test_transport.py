@@ -1,8 +1,13 @@
-"""SerialReader on a pty: every byte delivered, whole writes in one read, loss reported."""
+"""SerialReader on a pty: every byte delivered, whole writes in one read, loss reported.
+
+Waits are bounded by ``WAIT_S`` only so that a stalled machine fails instead of hanging."""
 
 from __future__ import annotations
 
+import fcntl
 import os
+import struct
+import termios
 import threading
 import time
 from typing import Any
@@ -10,8 +15,11 @@ from typing import Any
 from skin_driver.sim_board import PtyEndpoint
 from skin_driver.transport import SerialReader
 
+WAIT_S = 60.0
+"""Longest wait for something that must happen (a stalled machine); never a measured time."""
 
-def _wait(condition: object, timeout: float = 5.0) -> bool:
+
+def _wait(condition: object, timeout: float = WAIT_S) -> bool:
     end = time.monotonic() + timeout
     while time.monotonic() < end:
         if condition():  # type: ignore[operator]
@@ -20,35 +28,45 @@ def _wait(condition: object, timeout: float = 5.0) -> bool:
     return False
 
 
-def test_each_write_arrives_whole_in_about_one_read() -> None:
-    """A 4,020-byte frame (2,000 taxels) written while the reader waits comes out of the pty
-    in one or two reads — not a one-byte read, an ioctl and the rest, each call a GIL hand-off
-    in a process running three readers (transport module docstring)."""
-    endpoint = PtyEndpoint()
+def _buffered(fd: int) -> int:
+    """Bytes waiting to be read on the tty ``fd`` (FIONREAD)."""
+    return int(struct.unpack("i", fcntl.ioctl(fd, termios.FIONREAD, b"\0\0\0\0"))[0])
+
+
+def test_a_buffered_frame_comes_out_in_one_read() -> None:
+    """A 4,020-byte frame (2,000 taxels) waiting whole in the pty comes out in one read of
+    everything buffered — not pyserial's one-byte read, an ioctl and the rest, each call a GIL
+    hand-off in a process running three readers (transport module docstring). The reader is
+    held inside its data handler while each frame is written, until the tty holds all of it."""
+    endpoint = PtyEndpoint(write_timeout=WAIT_S)  # the test's writes are never dropped
+    probe = os.open(endpoint.path, os.O_RDONLY | os.O_NOCTTY | os.O_NONBLOCK)  # counts only
     chunks: list[bytes] = []
-    lock = threading.Lock()
+    entered = threading.Semaphore(0)  # the reader is inside on_data
+    release = threading.Semaphore(0)  # let it return
 
     def on_data(chunk: bytes, _t: int) -> None:
-        with lock:
-            chunks.append(chunk)
+        chunks.append(chunk)
+        entered.release()
+        release.acquire()
 
     reader = SerialReader(endpoint.path, on_data)
     reader.start()
+    frames = [os.urandom(4020) for _ in range(20)]
     try:
         assert _wait(lambda: reader.stats.connected)
-        frames = [os.urandom(4020) for _ in range(40)]
+        endpoint.write(b"\x01")  # a first byte: the reader then waits in on_data
+        assert entered.acquire(timeout=WAIT_S)
         for frame in frames:
             endpoint.write(frame)
-            time.sleep(0.01)  # the reader is waiting when the next frame comes
-        assert _wait(lambda: reader.stats.bytes_read == 40 * 4020), reader.stats
-        with lock:
-            assert b"".join(chunks) == b"".join(frames)
-            # pyserial's read took a 1-byte read, then the rest (≥ 2.5 reads per frame); here
-            # ≈ 1.1 on a quiet machine, ≤ 2 when the reader wakes mid-transfer under load.
-            assert min(len(c) for c in chunks) > 1, "a one-byte read: pyserial's pattern"
-            assert len(chunks) <= 2 * len(frames), f"{len(chunks)} reads for 40 writes"
+            assert _wait(lambda: _buffered(probe) == 4020), _buffered(probe)
+            release.release()  # the reader returns and reads what the tty holds
+            assert entered.acquire(timeout=WAIT_S)
+        release.release()
+        assert chunks[1:] == frames  # one read per frame, each read the whole frame
     finally:
+        release.release()
         reader.stop()
+        os.close(probe)
         endpoint.close()
 
 
@@ -81,7 +99,7 @@ def test_a_shared_poller_reads_every_port_on_one_thread_and_survives_a_lost_one(
 
     poller = PortPoller("test-poller")
     links = [f"{tmp_path}/port{i}" for i in range(3)]
-    endpoints = [PtyEndpoint(link) for link in links]
+    endpoints = [PtyEndpoint(link, write_timeout=WAIT_S) for link in links]  # never dropped
     received: list[list[bytes]] = [[], [], []]
     threads: set[str] = set()
 
@@ -109,7 +127,7 @@ def test_a_shared_poller_reads_every_port_on_one_thread_and_survives_a_lost_one(
         endpoints[1].close()
         assert _wait(lambda: readers[1].stats.disconnects == 1), readers[1].stats
         assert "lost" in readers[1].stats.last_error
-        endpoints[1] = PtyEndpoint(links[1])
+        endpoints[1] = PtyEndpoint(links[1], write_timeout=WAIT_S)
         assert _wait(lambda: readers[1].stats.connects == 2 and poller.ports == 3)
         endpoints[1].write(b"after")
         endpoints[0].write(b"still")

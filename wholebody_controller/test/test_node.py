@@ -28,6 +28,8 @@ from wholebody_controller.node import WholeBodyControllerNode
 
 ARM = [0.3, -1.2, 1.5, -1.0, -1.57, 0.0, -0.3, 1.2, -1.5, 1.0, 1.57, 0.0]
 CENTER = np.array([-0.15, 0.0, 0.05])
+WAIT_S = 60.0
+"""Longest wait for something that must happen (a stalled machine); never a measured time."""
 
 
 class Harness:
@@ -75,7 +77,9 @@ class Harness:
                 state = ContactState.no_contact(link, 1)
             pub.publish(contact_to_msg(state))
 
-    def run(self, until: Callable[[], bool], timeout: float = 5.0, **inputs: object) -> bool:
+    def run(self, until: Callable[[], bool], timeout: float = WAIT_S, **inputs: object) -> bool:
+        """Publish the inputs every 10 ms and spin until ``until()`` (``timeout`` [s] only
+        bounds a stalled machine)."""
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
             self.publish_inputs(**inputs)  # type: ignore[arg-type]
@@ -117,12 +121,13 @@ def test_contact_in_command_out_then_stale_contact_gives_zero(harness: Harness) 
     state = msg_to_task_state(harness.states[-1])
     assert state["psi"] > 1e-4 and state["in_contact"] == 1.0
     assert len(harness.left[-1].data) == 6
-    # Contacts stop arriving (joints and odometry keep coming) → zero within the timeout.
+    # Contacts stop arriving (joints and odometry keep coming) → zero (how soon: the sim-time
+    # test below and test_freshness).
     zero_before = harness.node.zero_cycles
     assert harness.run(lambda: harness.node.zero_cycles > zero_before and not nonzero(harness.left)
                        and abs(harness.twists[-1].linear.x) + abs(harness.twists[-1].linear.y)
                        == 0.0,
-                       force=None, contacts=False, timeout=3.0)
+                       force=None, contacts=False)
     # Inputs come back → commands again.
     assert harness.run(lambda: nonzero(harness.left), force=np.array([0.0, 0.0, 12.0]))
 
@@ -132,8 +137,7 @@ def test_nan_input_refused_node_stays_alive(harness: Harness) -> None:
     assert harness.run(lambda: harness.node.good_cycles > 3, force=None)
     bad = list(ARM)
     bad[2] = math.nan
-    assert harness.run(lambda: harness.node.rejected_inputs > 0, force=None, joints=bad,
-                       timeout=2.0)
+    assert harness.run(lambda: harness.node.rejected_inputs > 0, force=None, joints=bad)
     # NaN joints never updated the state: still the good values, and good cycles resume.
     assert np.all(np.isfinite(harness.node.arm_q))
     good = harness.node.good_cycles
@@ -147,7 +151,7 @@ def test_nan_input_refused_node_stays_alive(harness: Harness) -> None:
     rejected = harness.node.rejected_inputs
     harness.contact_pubs["left_forearm_link"].publish(msg)
     assert harness.run(lambda: harness.node.rejected_inputs > rejected, force=None,
-                       contacts=False, timeout=2.0)
+                       contacts=False)
 
 
 @pytest.mark.ros
@@ -195,7 +199,7 @@ def test_record_q_dance_and_shutdown_zero(harness: Harness) -> None:
     count = len(harness.left)
     node.destroy_node()
     harness.node_destroyed = True
-    deadline = time.monotonic() + 2.0
+    deadline = time.monotonic() + WAIT_S
     # Destroyed: nothing non-zero can follow, so the last message must end up zero.
     while (len(harness.left) <= count or nonzero(harness.left)) and time.monotonic() < deadline:
         harness.executor.spin_once(timeout_sec=0.01)
@@ -218,11 +222,17 @@ class SimClockHarness(Harness):
         self.clock_type = Clock
         self.sim_ns = 1_000_000_000
 
+    def cycles(self) -> int:
+        """Control cycles the node has run."""
+        return self.node.good_cycles + self.node.zero_cycles
+
     def advance(self, seconds: float, inputs: bool, force: np.ndarray | None = None) -> None:
         """Advance sim time in 10 ms steps (waiting until the node sees each), publishing the
-        inputs at every step if asked (waiting until they arrived)."""
+        inputs at every step if asked (waiting until they arrived), and waiting for the step's
+        control cycle (the 100 Hz timer on sim time is due once per step)."""
         node = self.node
         for _ in range(round(seconds / 0.01)):
+            cycles = self.cycles()
             self.sim_ns += 10_000_000
             msg = self.clock_type()
             msg.clock.sec, msg.clock.nanosec = divmod(self.sim_ns, 1_000_000_000)
@@ -236,12 +246,12 @@ class SimClockHarness(Harness):
                 fresh = node.freshness
                 return fresh.odom_time == now and min(fresh.contact_time.values()) == now
 
-            assert spin_until(self.executor, clock_seen, 5.0)
+            assert spin_until(self.executor, clock_seen, WAIT_S)
             if inputs:
                 self.publish_inputs(force)
-                assert spin_until(self.executor, inputs_seen, 5.0)
-            # let the timer run this step's control cycle
-            spin_until(self.executor, lambda: False, 0.005)
+                assert spin_until(self.executor, inputs_seen, WAIT_S)
+            assert spin_until(self.executor, lambda cycles=cycles: self.cycles() > cycles, WAIT_S)
+            assert self.cycles() == cycles + 1
 
     def spin(self, wall_seconds: float) -> None:
         spin_until(self.executor, lambda: False, wall_seconds)

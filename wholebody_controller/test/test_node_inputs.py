@@ -228,7 +228,8 @@ def test_commands_are_published_as_the_reference_messages(node: RecordingNode) -
 def test_a_burst_of_contact_states_is_queued_not_dropped(ros_context: object) -> None:
     """States published while the controller is held off the CPU (a 40 ms stall at 500 Hz: 20
     states of a link) all reach it when it runs again: with the sensor-data depth of 5 the DDS
-    queue kept only the last 5 (bench_chain's dropped frames)."""
+    queue kept only the last 5 (bench_chain's dropped frames). The controller is spun only once
+    a witness in the same process has all 20 (so all 20 have reached the controller's reader)."""
     import time
 
     from rclpy.executors import SingleThreadedExecutor
@@ -236,29 +237,42 @@ def test_a_burst_of_contact_states_is_queued_not_dropped(ros_context: object) ->
     from rclpy.qos import QoSProfile
     from sensor_msgs.msg import PointCloud2
 
+    from wholebody_controller.node import CONTACT_QOS
+
+    wait_s = 60.0  # bounds a stalled machine only
     controller = RecordingNode(ros_context)
     peer = Node("contact_burst_peer", context=ros_context)  # type: ignore[arg-type]
     link = "left_forearm_link"
     pub = peer.create_publisher(PointCloud2, f"contacts/{link}", QoSProfile(depth=50))
+    witnessed: list[PointCloud2] = []
+    peer.create_subscription(PointCloud2, f"contacts/{link}", witnessed.append,
+                             QoSProfile(depth=50, reliability=CONTACT_QOS.reliability))
     received: list[bytes] = []
     controller.on_contact_bytes = lambda lk, data: received.append(data)  # type: ignore[method-assign]
     executor = SingleThreadedExecutor(context=ros_context)  # type: ignore[arg-type]
     executor.add_node(controller)
+    witness = SingleThreadedExecutor(context=ros_context)  # type: ignore[arg-type]
+    witness.add_node(peer)
     try:
-        deadline = time.monotonic() + 10.0
-        while pub.get_subscription_count() < 1 and time.monotonic() < deadline:
+        deadline = time.monotonic() + wait_s
+        while pub.get_subscription_count() < 2 and time.monotonic() < deadline:
             time.sleep(0.01)
-        assert pub.get_subscription_count() >= 1, "no discovery"
+        assert pub.get_subscription_count() >= 2, "no discovery"
         for k in range(20):
             state = ContactState(link, 1_000_000_000 + 2_000_000 * k, True, CENTER, PUSH,
                                  np.zeros(3), CENTER - 0.02, CENTER + 0.02, 16)
             pub.publish(contact_to_msg(state))
-        time.sleep(0.3)  # the controller does not spin: the states wait in its reader queue
-        deadline = time.monotonic() + 5.0
+        # The controller does not spin meanwhile: the states wait in its reader queue.
+        deadline = time.monotonic() + wait_s
+        while len(witnessed) < 20 and time.monotonic() < deadline:
+            witness.spin_once(timeout_sec=0.05)
+        assert len(witnessed) == 20
+        deadline = time.monotonic() + wait_s
         while len(received) < 20 and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.05)
         assert len(received) == 20
     finally:
+        witness.shutdown()
         executor.shutdown()
         peer.destroy_node()
         controller.destroy_node()
