@@ -344,6 +344,7 @@ class SkinDriverNode(Node):
             for board, layout in layouts.items()
         }
 
+    @property
     def patches(self) -> tuple[str, ...]:
         """The patch names of this port's boards (from their layouts)."""
         return tuple(c.layout.patch for c in self._channels.values())
