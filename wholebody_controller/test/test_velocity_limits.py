@@ -84,7 +84,12 @@ def test_joint_out_of_range_returns_at_its_own_bound(kin: KinematicsModel) -> No
     q[12] -= 0.5  # right elbow 0.5 rad below
     config = ControllerConfig(joint_ranges=dance_ranges(kin.joint_names[3:], list(Q0[3:]), 0.1),
                               velocity_limit=1.0, velocity_limits=PER_AXIS)
-    res = WholeBodyController(kin, config).step(q, {})
+    ctl = WholeBodyController(kin, config)
+    first = ctl.step(q, {})
+    # From rest at the rated 2 rad/s²: 0.02 rad/s in the first 10 ms period ...
+    assert first.command[5] == pytest.approx(-0.02) and first.command[12] == pytest.approx(0.02)
+    for _ in range(10):  # ... then at its own bound once ramped up (0.07 and 0.14 rad/s)
+        res = ctl.step(q, {})
     assert res.command[5] == pytest.approx(-PER_AXIS[5])
     assert res.command[12] == pytest.approx(PER_AXIS[12])
 

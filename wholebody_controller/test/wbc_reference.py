@@ -351,6 +351,7 @@ class RefController:
             i = names.index(rng.joint)
             self.lower[i] = max(self.lower[i], rng.lower)
             self.upper[i] = min(self.upper[i], rng.upper)
+        self.previous = np.zeros(len(names))
         self.vmax = np.minimum(np.minimum(np.asarray(kin.velocity_limits, float),
                                           config.velocity_limit),
                                np.asarray(config.velocity_limits, float))
@@ -371,10 +372,15 @@ class RefController:
         stacked[:, 0:2] = stacked[:, 0:2] @ np.array(((c, -s), (s, c)))
         lo, hi = ref_velocity_bounds(q, self.lower, self.upper, -self.vmax, self.vmax,
                                      self.config.horizon)
+        # The actuators' rated acceleration: within a·dt of the previous command.
+        change = np.asarray(self.config.acceleration_limits, float) * self.config.dt
+        lo = np.clip(lo, self.previous - change, self.previous + change)
+        hi = np.clip(hi, self.previous - change, self.previous + change)
         target = np.concatenate([o.target for o in outs])
         problem = ref_build_qp(stacked, target, [o.psi for o in outs], self.config.epsilon,
                                lo, hi)
         command = self.solver.solve(problem)
+        self.previous = command.copy()
         residual = target - stacked @ command
         qdot = command.copy()
         qdot[0] = c * command[0] - s * command[1]

@@ -12,6 +12,7 @@ from wbc_tolerances import GAINS
 
 from phri_common.records import ContactState
 from wholebody_controller.config import (
+    ROBOT_ACCELERATION_LIMITS,
     SKIN_LINKS,
     ControllerConfig,
     LinkTaskConfig,
@@ -80,6 +81,8 @@ def configs(draw: st.DrawFn) -> ControllerConfig:
         lead_moment=draw(st.booleans()),
         safety=SafetyConfig(regain_distance=draw(st.sampled_from([0.15, 0.002])),
                             regain_time=draw(st.sampled_from([2.0, 0.05]))),
+        acceleration_limits=draw(st.sampled_from(
+            [ROBOT_ACCELERATION_LIMITS, (0.5,) * 15, (1e3,) * 15])),
         joint_ranges=dance_ranges(ARM_JOINTS, list(Q0[3:]), 0.1)
         if draw(st.booleans()) else (),
     )

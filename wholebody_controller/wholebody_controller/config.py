@@ -35,6 +35,20 @@ ROBOT_VELOCITY_LIMITS: tuple[float, ...] = tuple(
 """Default per-axis ``velocity_limits``: the robot description's own limits in q order [m/s,
 rad/s] (base x, y, yaw, then both arms), rounded up to 1e-3 so the description's still decide."""
 
+BASE_ACCELERATION = 1.0
+"""Rated acceleration of the mecanum base's translation [m/s²]: a ≈ 220 kg platform accelerates
+at roughly 0.5–1.5 m/s² (design §7); the middle of that range."""
+BASE_YAW_ACCELERATION = 1.5
+"""Rated yaw acceleration of the base [rad/s²]: 1 m/s² at each wheel about a centre ≈ 0.53 m
+away (half wheelbase plus half track) is ≈ 1.9 rad/s²; kept below it."""
+ARM_ACCELERATION = 2.0
+"""Rated joint acceleration of the UR16e as the RTDE bridge drives it [rad/s²]: the ``speedJ``
+acceleration of ``phri_hardware`` (``acceleration``, default 2.0), which the arm's controller
+applies to every command."""
+ROBOT_ACCELERATION_LIMITS: tuple[float, ...] = (
+    BASE_ACCELERATION, BASE_ACCELERATION, BASE_YAW_ACCELERATION, *(ARM_ACCELERATION,) * 12)
+"""Default per-axis ``acceleration_limits`` in q order [m/s², rad/s²]."""
+
 
 @dataclass(frozen=True)
 class AdmittanceGains:
@@ -199,6 +213,9 @@ class ControllerConfig:
         velocity_limits: per-axis |q̇| bounds in q order (base x, y [m/s], yaw [rad/s], then the
             arm joints [rad/s]); default :data:`ROBOT_VELOCITY_LIMITS`. The bound of axis k is
             min(robot's own, ``velocity_limit``, ``velocity_limits[k]``).
+        acceleration_limits: per-axis rated accelerations in q order [m/s², rad/s²]; the QP
+            keeps each command within ± this × dt of the previous one (default
+            :data:`ROBOT_ACCELERATION_LIMITS`).
         joint_ranges: extra position ranges (intersected with the joint limits).
         safety: the graded force response and contact gating (:mod:`contact_safety`).
         lead_moment: every task adds the lead moment about its hold point and carries its
@@ -241,6 +258,11 @@ class ControllerConfig:
         "velocity_limits", ROBOT_VELOCITY_LIMITS, "|q̇| bound of each axis in q order (base x, "
         "y, yaw, left then right arm joints), within velocity_limit and the robot's own",
         "m/s or rad/s", 0.0, 10.0, length=15)
+    acceleration_limits: tuple[float, ...] = setting(
+        "acceleration_limits", ROBOT_ACCELERATION_LIMITS, "rated acceleration of each axis in q "
+        "order (base x, y, yaw, left then right arm joints): each command differs from the "
+        "previous one by at most this × the control period", "m/s² or rad/s²", 1e-3, 1e3,
+        length=15)
     joint_ranges: tuple[JointRange, ...] = ()
     solver: str = setting("solver", "daqp",
                           "QP backend: daqp (exact, default) or osqp (warm-started)")

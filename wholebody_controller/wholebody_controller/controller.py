@@ -43,6 +43,7 @@ from wholebody_controller.kernels import StepKernel, step_kernel
 from wholebody_controller.kinematics import RobotKinematics
 from wholebody_controller.qp import QPError, QPProblem, QPSolver, make_solver
 from wholebody_controller.task_rows import (
+    N_CONTACT,
     N_OUT,
     N_STATE,
     S_POINT,
@@ -152,6 +153,9 @@ class WholeBodyController:
         self.links: tuple[str, ...] = ()
         self.state = np.zeros((0, N_STATE))
         """One state row per link (:mod:`task_rows`), config order: the tasks' whole state."""
+        self.previous_command = np.zeros(self.n)
+        """The last command u returned by :meth:`step` (zero after :meth:`reset`): each command
+        stays within the rated acceleration of it."""
         self.params = np.zeros((0, 0))
         self.phi_gamma = np.zeros((0, 12, 18))
         self.configure(config or ControllerConfig())
@@ -195,7 +199,8 @@ class WholeBodyController:
             self._warm_up()
 
     def _limits(self, config: ControllerConfig) -> Array:
-        """(4, n): q_l, q_u (the joints' own, within ``joint_ranges``), q̇_l, q̇_u of (22)."""
+        """(5, n): q_l, q_u (the joints' own, within ``joint_ranges``), q̇_l, q̇_u of (22), and
+        the largest change of each command in one period (rated acceleration × dt)."""
         lower = self._robot_position_limits[:, 0].copy()
         upper = self._robot_position_limits[:, 1].copy()
         index = {name: i for i, name in enumerate(self.joint_names)}
@@ -212,20 +217,27 @@ class WholeBodyController:
         vmax = config.axis_velocity_limits(self._robot_velocity_limits)
         self.position_lower, self.position_upper = lower, upper
         self.velocity_lower, self.velocity_upper = -vmax, vmax
-        return np.ascontiguousarray([lower, upper, -vmax, vmax], dtype=np.float64)
+        accelerations = np.asarray(config.acceleration_limits, dtype=np.float64)
+        if accelerations.shape != (self.n,):
+            raise ValueError(f"parameter 'acceleration_limits' has {accelerations.size} "
+                             f"entries, the robot {self.n} axes (base x, y, yaw, arms)")
+        change = accelerations * config.dt
+        return np.ascontiguousarray([lower, upper, -vmax, vmax, change], dtype=np.float64)
 
     def _warm_up(self) -> None:
         """Run the kernel once on scratch copies: compiles (or loads) it now, not in the first
         control cycle."""
         saved = self.state.copy()
         try:
-            self._step_robot(np.zeros(self.n), np.zeros(len(self.links) * 16))
+            self._step_robot(np.zeros(self.n), np.zeros(len(self.links) * N_CONTACT))
         finally:
             self.state[...] = saved
 
     def reset(self) -> None:
-        """Every task back to inactive (e.g. after stale input)."""
+        """Every task back to inactive and the robot taken as stopped (the node sends zero on
+        stale input, a QP failure, a refused input: the next command ramps up from rest)."""
         self.state[...] = 0.0
+        self.previous_command[...] = 0.0
 
     def step(self, q: Array, contacts: Mapping[str, ContactState]) -> StepResult:
         """One control cycle.
@@ -266,9 +278,9 @@ class WholeBodyController:
         hessian, gradient, lower, upper = empty((n, n)), empty(n), empty(n), empty(n)
         finite = self.kernel.step_robot(
             self.state, self.params, self.phi_gamma, rows, robot.data.xmat, robot.data.xpos,
-            self._bodies, self._chains, robot.data.xaxis, robot.data.xanchor, q, self.limits,
-            self.config.horizon, self.config.epsilon, self._outputs, target, jacobian, hessian,
-            gradient, lower, upper)
+            self._bodies, self._chains, robot.data.xaxis, robot.data.xanchor, q,
+            self.previous_command, self.limits, self.config.horizon, self.config.epsilon,
+            self._outputs, target, jacobian, hessian, gradient, lower, upper)
         return QPProblem(hessian, gradient, lower, upper), target, jacobian, bool(finite)
 
     def _step_generic(self, q: Array, rows: Array) -> tuple[QPProblem, Array, Array, bool]:
@@ -293,9 +305,9 @@ class WholeBodyController:
         target = np.empty(rows_n)
         hessian, gradient, lower, upper = (np.empty((n, n)), np.empty(n), np.empty(n),
                                            np.empty(n))
-        finite = self.kernel.qp_of_step(self._outputs, jacobian, q, self.limits,
-                                        self.config.horizon, self.config.epsilon, target,
-                                        hessian, gradient, lower, upper)
+        finite = self.kernel.qp_of_step(self._outputs, jacobian, q, self.previous_command,
+                                        self.limits, self.config.horizon, self.config.epsilon,
+                                        target, hessian, gradient, lower, upper)
         return QPProblem(hessian, gradient, lower, upper), target, jacobian, bool(finite)
 
     def _solve(self, problem: QPProblem, yaw: float, outputs: tuple[TaskOutput, ...],
@@ -305,6 +317,7 @@ class WholeBodyController:
         u = command.tolist()
         if not isfinite(sum(u)):
             raise QPError("non-finite command")
+        self.previous_command[...] = command
         u[0], u[1] = base_to_world(yaw, u[0], u[1])
         return StepResult(command, np.array(u), outputs, problem, target, jacobian)
 

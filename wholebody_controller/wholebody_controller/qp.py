@@ -54,21 +54,28 @@ class QPProblem(NamedTuple):
 
 
 @jitable
-def velocity_bounds_into(q: Array, limits: Array, horizon: float, lower: Array,
-                         upper: Array) -> None:
-    """The bounds of (23) from (22), written into ``lower`` and ``upper``:
-    ``clip((q_l − q)/h, q̇_l, q̇_u) ≤ u ≤ clip((q_u − q)/h, q̇_l, q̇_u)``.
+def velocity_bounds_into(q: Array, previous: Array, limits: Array, horizon: float,
+                         lower: Array, upper: Array) -> None:
+    """The bounds of (23), written into ``lower`` and ``upper``: (22)
+    ``clip((q_l − q)/h, q̇_l, q̇_u) ≤ u ≤ clip((q_u − q)/h, q̇_l, q̇_u)``, then both clipped into
+    ``previous ± Δ``, the change the actuators can make in one period at their rated
+    acceleration (Δ = a·dt). Clipping both bounds into one interval keeps ``lower ≤ upper``;
+    where (22) asks for more than the actuators can do in one period (a joint after a q_dance
+    change, a lower velocity limit), the command moves towards it at the rated acceleration.
 
     Args:
         q: current positions [rad] / [m] (only where the position limits are finite).
-        limits: (4, n) q_l, q_u (±inf allowed), q̇_l ≤ 0 ≤ q̇_u [rad/s] / [m/s].
+        previous: the previous command u [m/s, rad/s].
+        limits: (5, n) q_l, q_u (±inf allowed), q̇_l ≤ 0 ≤ q̇_u [rad/s] / [m/s], Δ ≥ 0
+            [m/s, rad/s] (inf: no acceleration bound).
         horizon: h [s].
     """
     for i in range(q.shape[0]):
-        bound = max((limits[0, i] - q[i]) / horizon, limits[2, i])
-        lower[i] = min(bound, limits[3, i])
-        bound = max((limits[1, i] - q[i]) / horizon, limits[2, i])
-        upper[i] = min(bound, limits[3, i])
+        low = min(max((limits[0, i] - q[i]) / horizon, limits[2, i]), limits[3, i])
+        high = min(max((limits[1, i] - q[i]) / horizon, limits[2, i]), limits[3, i])
+        slowest, fastest = previous[i] - limits[4, i], previous[i] + limits[4, i]
+        lower[i] = min(max(low, slowest), fastest)
+        upper[i] = min(max(high, slowest), fastest)
 
 
 @jitable
@@ -113,12 +120,13 @@ def velocity_bounds(
     velocity_upper: Array,
     horizon: float,
 ) -> tuple[Array, Array]:
-    """:func:`velocity_bounds_into` on new arrays (limits as four vectors)."""
+    """(22) by :func:`velocity_bounds_into` on new arrays, without an acceleration bound."""
     q = np.asarray(q, dtype=np.float64)
-    limits = np.array([position_lower, position_upper, velocity_lower, velocity_upper],
-                      dtype=np.float64)
+    unbounded = np.full_like(q, np.inf)
+    limits = np.array([position_lower, position_upper, velocity_lower, velocity_upper,
+                       unbounded], dtype=np.float64)
     lower, upper = np.empty_like(q), np.empty_like(q)
-    velocity_bounds_into(q, limits, float(horizon), lower, upper)
+    velocity_bounds_into(q, np.zeros_like(q), limits, float(horizon), lower, upper)
     return lower, upper
 
 

@@ -80,9 +80,9 @@ def chain_jacobian(chain: IntArray, xaxis: Array, xanchor: Array, rot: tuple, po
 @jitable
 def step_robot(state: Array, params: Array, phi_gamma: Array, contacts: Array, xmat: Array,
                xpos: Array, bodies: IntArray, chains: IntArray, xaxis: Array, xanchor: Array,
-               q: Array, limits: Array, horizon: float, epsilon: float, outputs: Array,
-               target: Array, jacobian: Array, hessian: Array, gradient: Array,
-               lower: Array, upper: Array) -> bool:
+               q: Array, previous: Array, limits: Array, horizon: float, epsilon: float,
+               outputs: Array, target: Array, jacobian: Array, hessian: Array,
+               gradient: Array, lower: Array, upper: Array) -> bool:
     """One control step of every link after ``mj_kinematics``: the tasks, their Jacobians and
     (22)–(23).
 
@@ -93,8 +93,9 @@ def step_robot(state: Array, params: Array, phi_gamma: Array, contacts: Array, x
         xmat, xpos: MuJoCo's world frames of the bodies (nbody×9, nbody×3).
         bodies: body id of each link; chains: (k, L, 3) each link's :func:`joint_chain`.
         xaxis, xanchor: MuJoCo's world joint axes and anchors (njnt×3).
-        q: configuration (n) [m, rad]; limits: (4, n) q_l, q_u, q̇_l, q̇_u; horizon h [s];
-            epsilon ε of (23).
+        q: configuration (n) [m, rad]; previous: the previous command u (n);
+            limits: (5, n) q_l, q_u, q̇_l, q̇_u, a·dt (:func:`velocity_bounds_into`);
+            horizon h [s]; epsilon ε of (23).
         outputs, target, jacobian, hessian, gradient, lower, upper: written: the tasks' rows
             (k, N_OUT), b (6k), J in u (6k×n), H (n×n), g (n), the bounds (n each).
 
@@ -113,18 +114,18 @@ def step_robot(state: Array, params: Array, phi_gamma: Array, contacts: Array, x
         point = (state[i, S_POINT], state[i, S_POINT + 1], state[i, S_POINT + 2])
         chain_jacobian(chains[i], xaxis, xanchor, rot, pos, point, c, s,
                        jacobian[6 * i : 6 * i + 6])
-    return qp_of_step(outputs, jacobian, q, limits, horizon, epsilon, target, hessian,
-                      gradient, lower, upper)
+    return qp_of_step(outputs, jacobian, q, previous, limits, horizon, epsilon, target,
+                      hessian, gradient, lower, upper)
 
 
 @jitable
-def qp_of_step(outputs: Array, jacobian: Array, q: Array, limits: Array, horizon: float,
-               epsilon: float, target: Array, hessian: Array, gradient: Array, lower: Array,
-               upper: Array) -> bool:
+def qp_of_step(outputs: Array, jacobian: Array, q: Array, previous: Array, limits: Array,
+               horizon: float, epsilon: float, target: Array, hessian: Array, gradient: Array,
+               lower: Array, upper: Array) -> bool:
     """(22)–(23) of a step: the targets b_i and weights ψ_i from the tasks' output rows
-    (k × N_OUT), J (6k × n, in u), bounds from q and ``limits`` (4×n: q_l, q_u, q̇_l, q̇_u),
-    h and ε; writes ``target``, ``hessian``, ``gradient``, ``lower``, ``upper``. Returns
-    whether H's diagonal and g are finite."""
+    (k × N_OUT), J (6k × n, in u), bounds from q, the previous command and ``limits`` (5×n:
+    q_l, q_u, q̇_l, q̇_u, a·dt), h and ε; writes ``target``, ``hessian``, ``gradient``,
+    ``lower``, ``upper``. Returns whether H's diagonal and g are finite."""
     k = outputs.shape[0]
     weights = np.empty(6 * k)
     for i in range(k):
@@ -132,5 +133,5 @@ def qp_of_step(outputs: Array, jacobian: Array, q: Array, limits: Array, horizon
         for r in range(6):
             target[6 * i + r] = outputs[i, r]
             weights[6 * i + r] = psi2
-    velocity_bounds_into(q, limits, horizon, lower, upper)
+    velocity_bounds_into(q, previous, limits, horizon, lower, upper)
     return assemble_qp(jacobian, target, weights, epsilon, hessian, gradient)
