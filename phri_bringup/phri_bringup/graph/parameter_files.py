@@ -30,6 +30,7 @@ from phri_bringup.graph.nodes import (
 )
 from phri_common import paper
 from phri_common.params import ParameterValueError, ParamSpec
+from wholebody_controller.config import ROBOT_ACCELERATION_LIMITS
 
 NodeParameters = dict[str, dict[str, Any]]
 """node name → parameter name → value."""
@@ -80,10 +81,14 @@ def real_parameters() -> NodeParameters:
     from phri_sim.scenarios.catalogue import SCENARIOS
 
     sc = SCENARIOS[REAL_CONTROLLER_BASE]
+    controller = {k: _plain(v) for k, v in sc.controller_parameters.items()}
+    # A real robot's commands stay within its rated accelerations (the paper's experiments in
+    # the simulator leave them free).
+    controller["acceleration_limits"] = list(ROBOT_ACCELERATION_LIMITS)
     return {
         **{driver: {"filter_window": paper.FILTER_WINDOW} for driver in REAL_SKIN_PORTS},
         ESTIMATION: dict(ESTIMATION_DEFAULTS),
-        CONTROLLER: {k: _plain(v) for k, v in sc.controller_parameters.items()},
+        CONTROLLER: controller,
     }
 
 

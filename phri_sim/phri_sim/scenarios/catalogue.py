@@ -57,6 +57,7 @@ from phri_sim.scenarios.motion_profiles import minimum_jerk
 from phri_sim.scenarios.waltz_choreography import waltz_choreography
 from phri_sim.world.person_body import TORSO, WAIST_RADIUS, PartTarget
 from phri_sim.world.simulation import Simulation
+from wholebody_controller.config import ROBOT_ACCELERATION_LIMITS
 
 FloatArray = NDArray[np.float64]
 Script = Callable[[float], dict[str, PartTarget]]
@@ -69,8 +70,15 @@ Q_RIGHT_HOME: tuple[float, ...] = (0.0, 0.3, -0.3, 0.0, 0.0, 0.0)
 Q_HOME: tuple[float, ...] = (0.0, 0.0, 0.0, *Q_LEFT_HOME, *Q_RIGHT_HOME)
 """Start configuration q (15): base at the origin, arms at home."""
 
+PAPER_ACCELERATION_LIMITS = [1000.0] * 15
+"""``acceleration_limits`` of the paper's experiments [m/s², rad/s²]: the paper's QP (22)–(23)
+bounds velocities only, so its sets leave the commands' rate of change free (1000 per second
+squared is beyond any actuator: the bound never acts). The default waltz runs at the robot's
+rated accelerations (:data:`ROBOT_ACCELERATION_LIMITS`)."""
+
 TABLE_II: dict[str, Any] = {
     "velocity_limit": paper.VELOCITY_LIMIT,
+    "acceleration_limits": PAPER_ACCELERATION_LIMITS,
     "k_eta": paper.K_ETA,
     "b": paper.B,
     "k_p": paper.K_P,
@@ -426,10 +434,11 @@ WALTZ_PARAMS = {
     "k_eta": WALTZ_K_ETA,
     "q_dance_range": WALTZ_DANCE_RANGE,
     "lead_moment": True,
+    "acceleration_limits": list(ROBOT_ACCELERATION_LIMITS),
 }
 """The default waltz set: the paper's with :data:`WALTZ_FOLLOW`, :data:`WALTZ_K_ETA`,
-:data:`WALTZ_DANCE_RANGE` and the lead moment (F1) with the carried reference (F2) of
-:mod:`wholebody_controller.following`."""
+:data:`WALTZ_DANCE_RANGE`, the lead moment (F1) with the carried reference (F2) of
+:mod:`wholebody_controller.following`, and commands within the robot's rated accelerations."""
 
 WALTZ_TEMPO_BASE_LIMITS = (0.5, 0.5, 1.0)
 """The mecanum base's own speed limits for the `tempo` waltz (issue 14): x, y 0.5 m/s, yaw
