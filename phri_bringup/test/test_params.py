@@ -59,12 +59,13 @@ def test_default_waltz_deviates_from_the_paper_only_where_documented() -> None:
     ours = params.load(config_file("waltz"))[CONTROLLER]
     changed = {k for k in set(paper) | set(ours) if paper.get(k) != ours.get(k)}
     links = ("left_upper_arm_link", "left_forearm_link", "right_forearm_link")
-    assert changed == {"k_eta", "q_dance_range", "lead_moment",
+    assert changed == {"k_eta", "q_dance_range", "lead_moment", "acceleration_limits",
                        *(f"{link}.{g}" for link in links for g in ("inertia", "damping"))}
     doc = (Path(__file__).resolve().parents[2] / "docs" / "wholebody_controller.md").read_text(
         encoding="utf-8")
     section = doc.split("## Following a turning partner", 1)[1].split("\n## ", 1)[0]
-    for key in ("k_eta", "q_dance_range", "lead_moment", "inertia", "damping"):
+    for key in ("k_eta", "q_dance_range", "lead_moment", "acceleration_limits", "inertia",
+                "damping"):
         assert f"`{key}`" in section, key
     assert params.load(config_file("sliding"))[CONTROLLER]["region_margin"] == 0.01
 
