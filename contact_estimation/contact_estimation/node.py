@@ -59,6 +59,7 @@ from contact_estimation.plausibility import (
 )
 from phri_common.contact_cdr import contact_to_cdr
 from phri_common.params import ParamSpec, ParamValue
+from phri_common.protected import UNLOCK_PARAM
 from phri_common.records import ContactState, TaxelArray
 from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
@@ -87,20 +88,25 @@ PARAMS: list[ParamSpec] = [
     ParamSpec("max_taxel_force", DEFAULT_MAX_TAXEL_FORCE, "the skin's rated range: a frame "
               "with any taxel |force| above it is refused as corrupted (the default skin "
               "saturates at ≈ 32 N)", unit="N", low=MAX_TAXEL_FORCE_RANGE[0],
-              high=MAX_TAXEL_FORCE_RANGE[1]),
+              high=MAX_TAXEL_FORCE_RANGE[1], loosens="up"),
     ParamSpec("stuck_timeout", 0.5, "a touched patch whose frame repeats bit for bit for longer "
-              "than this is stuck: its frames are refused", unit="s", low=0.01, high=60.0),
+              "than this is stuck: its frames are refused", unit="s", low=0.01, high=60.0,
+              loosens="up"),
     ParamSpec("plausibility_dead_time", 1.0, "a taxel whose force has not changed for this "
-              "long is silent (0 = no dead-region check)", unit="s", low=0.0, high=60.0),
+              "long is silent (0 = no dead-region check)", unit="s", low=0.0, high=60.0,
+              loosens="up_or_off"),
     ParamSpec("plausibility_dead_fraction", 0.25, "a patch with a larger share of silent taxels "
-              "is a dead region: its frames are refused, diagnostics ERROR", low=0.0, high=1.0),
+              "is a dead region: its frames are refused, diagnostics ERROR", low=0.0, high=1.0,
+              loosens="up"),
     ParamSpec("plausibility_frozen_window", 2.0, "a link touched this long whose contact force "
               "and centre stay within the two bounds below is frozen: its frames are refused, "
-              "diagnostics ERROR (0 = no frozen check)", unit="s", low=0.0, high=60.0),
+              "diagnostics ERROR (0 = no frozen check)", unit="s", low=0.0, high=60.0,
+              loosens="up_or_off"),
     ParamSpec("plausibility_frozen_force_ratio", 0.01, "frozen: contact force range below this "
-              "fraction of its mean over the window", low=0.0, high=1.0),
+              "fraction of its mean over the window", low=0.0, high=1.0, loosens="down"),
     ParamSpec("plausibility_frozen_center_range", 0.5e-3, "frozen: contact centre range below "
-              "this on every axis over the window", unit="m", low=0.0, high=1.0),
+              "this on every axis over the window", unit="m", low=0.0, high=1.0,
+              loosens="down"),
     ParamSpec("kernel", KERNELS[0], "how the per-link sums are computed: numba (compiled, "
               "default) or numpy (the reference); same states to rounding"),
     ParamSpec("publish_markers", True, "publish rviz markers on contacts/markers"),
@@ -117,6 +123,7 @@ PARAMS: list[ParamSpec] = [
               unit="frames", low=1, high=1_000_000),
     ParamSpec("diagnostics_period", 1.0, "period of the /diagnostics report", unit="s",
               low=0.05, high=3600.0),
+    UNLOCK_PARAM,
 ]
 
 TAXEL_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)

@@ -267,7 +267,8 @@ class ControllerConfig:
         "yield_acceleration_limits", ROBOT_ACCELERATION_LIMITS, "acceleration of each axis in q "
         "order while a link yields at the full excess (yield_full_excess; scaled from "
         "acceleration_limits by the excess below it): a safety stop's deceleration, which the "
-        "actuators must be able to make", "m/s² or rad/s²", 1e-3, 1e3, length=15)
+        "actuators must be able to make", "m/s² or rad/s²", 1e-3, 1e3, length=15,
+        loosens="down")
     joint_ranges: tuple[JointRange, ...] = ()
     solver: str = setting("solver", "daqp",
                           "QP backend: daqp (exact, default) or osqp (warm-started)")

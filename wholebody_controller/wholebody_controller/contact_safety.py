@@ -80,29 +80,31 @@ class SafetyConfig:
 
     fade_start: float = setting(
         "force_fade_start", 0.5, "fraction of a link's force_limit where desired force and "
-        "approach start to fade", "-", 0.0, 0.99)
+        "approach start to fade", "-", 0.0, 0.99, loosens="up")
     reset_ratio: float = setting(
         "force_reset_ratio", 0.5, "fraction of force_limit below which a yielding link resumes",
-        "-", 0.01, 1.0)
+        "-", 0.01, 1.0, loosens="up")
     yield_speed: float = setting(
         "yield_speed", paper.VELOCITY_LIMIT, "speed of a contact centre away from a contact at "
-        "its force_limit", "m/s", 0.0, 1.0)
+        "its force_limit", "m/s", 0.0, 1.0, loosens="down")
     regain_distance: float = setting(
         "regain_distance", 0.15, "link travel allowed without contact under a desired force",
-        "m", 0.0, 1.0)
+        "m", 0.0, 1.0, loosens="up")
     regain_time: float = setting(
-        "regain_time", 2.0, "time allowed without contact under a desired force", "s", 0.0, 60.0)
+        "regain_time", 2.0, "time allowed without contact under a desired force", "s", 0.0, 60.0,
+        loosens="up")
     yield_speed_max: float = setting(
         "yield_speed_max", 1.0, "yield speed of a contact centre at the full excess "
         "(1 + yield_full_excess) × force_limit; yield_speed at the limit, linear between", "m/s",
-        0.0, 5.0)
+        0.0, 5.0, loosens="down")
     full_excess: float = setting(
         "yield_full_excess", 1.0, "excess over force_limit, as a fraction of it, at which the "
-        "yield speed and the whole body's opened bounds are full", "-", 0.01, 100.0)
+        "yield speed and the whole body's opened bounds are full", "-", 0.01, 100.0,
+        loosens="up")
     yield_joint_range: float = setting(
         "yield_joint_range", 0.3, "how far an arm joint may leave its position range (q_dance "
         "band) while a link yields at the full excess (scaled by the excess below it)", "rad",
-        0.0, 6.3)
+        0.0, 6.3, loosens="down")
 
     def __post_init__(self) -> None:
         check_settings(self)

@@ -94,6 +94,7 @@ from wholebody_controller.parameters import (
     LINKS_PARAM,
     config_from_values,
     control_loop_mode,
+    iso_overrides,
     link_param_specs,
 )
 from wholebody_controller.qos import CONTACT_QOS, SCALING_QOS
@@ -137,6 +138,8 @@ class WholeBodyControllerNode(Node):
         specs = [*GLOBAL_PARAMS, *(s for link in self.links for s in link_param_specs(link))]
         self.controller: WholeBodyController | None = None
         self.params = declare_parameters(self, specs, self._on_params)
+        for text in iso_overrides(self.params, self.links):
+            self.get_logger().error(f"iso15066_override: {text}")
         # When each input arrived (node clock) and whether a cycle may use them.
         self.freshness = InputFreshness(self.links, self.arm_joints,
                                         freshness_config(self.params))
