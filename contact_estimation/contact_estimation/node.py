@@ -102,9 +102,9 @@ PARAMS: list[ParamSpec] = [
               "and centre stay within the two bounds below is frozen: its frames are refused, "
               "diagnostics ERROR (0 = no frozen check)", unit="s", low=0.0, high=60.0,
               loosens="up_or_off"),
-    ParamSpec("plausibility_frozen_force_ratio", 0.01, "frozen: contact force range below this "
+    ParamSpec("plausibility_frozen_force_ratio", 0.05, "frozen: contact force range below this "
               "fraction of its mean over the window", low=0.0, high=1.0, loosens="down"),
-    ParamSpec("plausibility_frozen_center_range", 0.5e-3, "frozen: contact centre range below "
+    ParamSpec("plausibility_frozen_center_range", 2e-3, "frozen: contact centre range below "
               "this on every axis over the window", unit="m", low=0.0, high=1.0,
               loosens="down"),
     ParamSpec("kernel", KERNELS[0], "how the per-link sums are computed: numba (compiled, "

@@ -73,8 +73,8 @@ class PlausibilityConfig:
     dead_time: float = 1.0
     max_dead_fraction: float = 0.25
     frozen_window: float = 2.0
-    frozen_force_ratio: float = 0.01
-    frozen_center_range: float = 0.5e-3
+    frozen_force_ratio: float = 0.05
+    frozen_center_range: float = 2e-3
     min_force: float = 1.0
 
     def __post_init__(self) -> None:

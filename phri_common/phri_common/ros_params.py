@@ -95,6 +95,16 @@ def declare_parameters(
     if protected and UNLOCK_PARAM.name not in by_name and not node.has_parameter(
             UNLOCK_PARAM.name):
         raise ValueError(f"protected settings need the '{UNLOCK_PARAM.name}' parameter")
+    node.add_on_set_parameters_callback(_validator(node, values, by_name, on_change, protected))
+    return values
+
+
+def _validator(node: Node, values: dict[str, ParamValue], by_name: dict[str, ParamSpec],
+               on_change: Callable[[dict[str, ParamValue]], None] | None, protected: bool
+               ) -> Callable[[list[Parameter]], SetParametersResult]:
+    """The set-parameters callback: each value checked against its spec, a loosening of a
+    protected setting refused unless unlocked (:mod:`phri_common.protected`), ``on_change``
+    called; accepted loosenings and a change of the unlock logged at WARN."""
 
     def _validate(params: list[Parameter]) -> SetParametersResult:
         proposed = dict(values)
@@ -115,16 +125,15 @@ def declare_parameters(
             return SetParametersResult(successful=False, reason=str(err))
         for line in loosening:
             node.get_logger().warning(f"protected safety setting loosened (unlocked): {line}")
-        if UNLOCK_PARAM.name in changed and changed[UNLOCK_PARAM.name] != values.get(
-                UNLOCK_PARAM.name):
-            state = "UNLOCKED" if changed[UNLOCK_PARAM.name] else "locked again"
+        unlock = changed.get(UNLOCK_PARAM.name)
+        if unlock is not None and unlock != values.get(UNLOCK_PARAM.name):
+            state = "UNLOCKED" if unlock else "locked again"
             node.get_logger().warning(f"protected safety settings {state} "
-                                      f"({UNLOCK_PARAM.name} = {changed[UNLOCK_PARAM.name]})")
+                                      f"({UNLOCK_PARAM.name} = {unlock})")
         values.update(proposed)
         return SetParametersResult(successful=True)
 
-    node.add_on_set_parameters_callback(_validate)
-    return values
+    return _validate
 
 
 def _unlocked(node: Node, proposed: dict[str, ParamValue]) -> bool:

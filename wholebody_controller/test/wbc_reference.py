@@ -374,6 +374,7 @@ class RefController:
         self.yield_vmax = np.maximum(np.minimum(np.asarray(kin.velocity_limits, float),
                                                 np.asarray(config.velocity_limits, float)),
                                      self.vmax)
+        self.yield_vmax[:3] = self.vmax[:3]  # the base keeps its bounds (docs: the arm yields)
 
     def step(self, q: Array, contacts: Mapping[str, ContactState]) -> RefStep:
         self.kin.update(q)
@@ -404,6 +405,7 @@ class RefController:
         # acceleration while yielding, by σ).
         rated = np.asarray(self.config.acceleration_limits, float)
         fast = np.maximum(np.asarray(self.config.yield_acceleration_limits, float), rated)
+        fast[:3] = rated[:3]
         change = towards(rated, fast) * self.config.dt
         lo = np.clip(lo, self.previous - change, self.previous + change)
         hi = np.clip(hi, self.previous - change, self.previous + change)

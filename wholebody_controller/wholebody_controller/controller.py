@@ -202,9 +202,9 @@ class WholeBodyController:
         """(9, n): q_l, q_u (the joints' own, within ``joint_ranges``), q̇_l, q̇_u of (22), the
         largest change of each command in one period (rated acceleration × dt), then the
         yield's (:func:`~wholebody_controller.qp.yield_limits_into`): the arm joints' ranges
-        opened by ``yield_joint_range`` within their own limits, the actuator velocity limit
-        (``velocity_limits`` and the robot's, without Table II's ``velocity_limit``), the
-        yield acceleration × dt."""
+        opened by ``yield_joint_range`` within their own limits, their actuator velocity limit
+        (``velocity_limits`` and the robot's, without Table II's ``velocity_limit``) and yield
+        acceleration × dt; the base's bounds stay the normal ones."""
         lower = self._robot_position_limits[:, 0].copy()
         upper = self._robot_position_limits[:, 1].copy()
         index = {name: i for i, name in enumerate(self.joint_names)}
@@ -235,9 +235,13 @@ class WholeBodyController:
         actuator = np.minimum(self._robot_velocity_limits,
                               np.asarray(config.velocity_limits, dtype=np.float64))
         actuator = np.maximum(actuator, vmax)
+        fast = np.maximum(fast, rated)
+        # The base keeps its normal bounds: a fast base turn sweeps the other arm through the
+        # partner (docs: Contact safety, "The yield is graded").
+        actuator[:3], fast[:3] = vmax[:3], rated[:3]
         return np.ascontiguousarray(
             [lower, upper, -vmax, vmax, rated * config.dt, yield_lower, yield_upper, actuator,
-             np.maximum(fast, rated) * config.dt], dtype=np.float64)
+             fast * config.dt], dtype=np.float64)
 
     def _warm_up(self) -> None:
         """Run the kernel once on scratch copies: compiles (or loads) it now, not in the first

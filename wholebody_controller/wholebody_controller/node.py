@@ -121,8 +121,7 @@ class WholeBodyControllerNode(Node):
         super().__init__(node_name, **kwargs)
         # Held by every control cycle and by whatever runs in the executor's thread beside it.
         self.cycle_lock = threading.RLock()
-        self.fatal_error: BaseException | None = None
-        """What stopped the control thread (``run_nodes`` then exits with code 1)."""
+        self.fatal_error: BaseException | None = None  # what stopped the control thread
         # Before anything can fail: rclpy destroys even a node whose constructor raised.
         self.loop: PeriodicThread | None = None
         self._polled: list[tuple[PolledSubscription, Callable[[bytes], None]]] = []
@@ -138,8 +137,7 @@ class WholeBodyControllerNode(Node):
         specs = [*GLOBAL_PARAMS, *(s for link in self.links for s in link_param_specs(link))]
         self.controller: WholeBodyController | None = None
         self.params = declare_parameters(self, specs, self._on_params)
-        for text in iso_overrides(self.params, self.links):
-            self.get_logger().error(f"iso15066_override: {text}")
+        self._log_iso_overrides()
         # When each input arrived (node clock) and whether a cycle may use them.
         self.freshness = InputFreshness(self.links, self.arm_joints,
                                         freshness_config(self.params))
@@ -159,8 +157,7 @@ class WholeBodyControllerNode(Node):
         self.joint_limits = {name: (float(limits[i, 0]), float(limits[i, 1]))
                              for i, name in enumerate(joints) if name in self.arm_joints}
         self.safety: dict[str, Safety] = dict.fromkeys(self.links, Safety.OK)
-        self.safe_stop = SafeStop()
-        """Latched plausibility verdicts: exact zero command until ``~/reset``."""
+        self.safe_stop = SafeStop()  # latched plausibility verdicts: exact zero until ~/reset
         self.speed_scaling: dict[str, float] = {}
         """Executed fraction of commanded speed per arm (0–1), from its UR; none: unscaled."""
         self.scaling_gate = ScalingGate()
@@ -171,6 +168,12 @@ class WholeBodyControllerNode(Node):
         self.good_cycles = 0
         self._create_interfaces(direct_state_inputs)
         self._start_loop()
+
+    def _log_iso_overrides(self) -> None:
+        """Every force limit ``iso15066_override`` lets above the ISO/TS 15066 table, at ERROR
+        (docs: Protected settings)."""
+        for text in iso_overrides(self.params, self.links):
+            self.get_logger().error(f"iso15066_override: {text}")
 
     def _node_clock_ns(self) -> Callable[[], int]:
         """The node clock [ns]: the control thread runs on the wall clock, which is what the
