@@ -37,6 +37,8 @@ MUTATIONS: list[tuple[str, str, str, str]] = [
   "    if sigma > 0.0:\n        bounds = np.empty", "    if False:\n        bounds = np.empty"),
  ("safety: the opened band ignored (velocity and acceleration only)", W+"qp.py",
   "            out[row, i] = a if a == b else a + sigma * (b - a)", "            out[row, i] = a"),
+ ("safety: the opened bounds close while the partner still pushes", W+"task_step.py",
+  "        s[S_OPENED] = max(s[S_OPENED], sigma)", "        s[S_OPENED] = sigma"),
  ("safety: the base's bounds opened while yielding", W+"controller.py",
   "        actuator[:3], fast[:3] = vmax[:3], rated[:3]", "        pass"),
  ("safe stop: a tripped stop does not zero the command", W+"node.py",

@@ -171,6 +171,18 @@ def test_the_yield_speed_grows_with_the_excess_over_the_limit(force: float, spee
     assert task.yield_excess == pytest.approx(min((force - 110.0) / 110.0, 1.0))
 
 
+def test_the_bounds_stay_open_until_the_push_is_over() -> None:
+    """The yield's opening (σ at its largest) is held while the force stays above the fade start
+    (a partner still pushing at 70 N after a 220 N shove is not pushed back by the band), and
+    closes once it falls to it."""
+    task = make_task()
+    push = np.array([0.0, 0.0, -1.0])
+    for k, (force, opened) in enumerate([(165.0, 0.5), (220.0, 1.0), (120.0, 1.0), (70.0, 1.0),
+                                         (56.0, 1.0), (50.0, 0.0), (120.0, 0.0909)]):
+        step(task, press(force * push, k))
+        assert task.yield_excess == pytest.approx(opened, abs=1e-4), (force, opened)
+
+
 def test_yield_scale_and_speed() -> None:
     assert yield_scale(100.0, 110.0, 1.0) == 0.0 and yield_scale(165.0, 110.0, 1.0) == 0.5
     assert yield_scale(165.0, 110.0, 0.25) == 1.0

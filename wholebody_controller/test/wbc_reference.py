@@ -73,6 +73,8 @@ class RefGuard:
         self.yielding = False
         self.excess = 0.0
         """σ: (‖f‖ − F) / (e·F) within [0, 1] while yielding, else 0."""
+        self.opened = 0.0
+        """The bounds' opening: the largest σ of the yield, until ‖f‖ ≤ a·F."""
 
     def update(self, force: float) -> float:
         """The approach scale s of this cycle's force [N]."""
@@ -82,7 +84,10 @@ class RefGuard:
         if self.yielding:
             self.excess = float(np.clip((force - self.limit)
                                         / (self.safety.full_excess * self.limit), 0.0, 1.0))
+            self.opened = max(self.opened, self.excess)
             return 0.0
+        if force <= self.safety.fade_start * self.limit:
+            self.opened = 0.0
         start = self.safety.fade_start * self.limit
         return 1.0 if force <= start else float(np.clip((self.limit - force)
                                                          / (self.limit - start), 0.0, 1.0))
@@ -122,7 +127,7 @@ class RefOutput:
     in_contact: bool
     safety: Safety
     excess: float = 0.0
-    """σ of the yield (0 unless yielding)."""
+    """How far the yield opens the bounds (the largest σ, until ‖f‖ ≤ a·F)."""
 
 
 class RefRegion:
@@ -334,7 +339,7 @@ class RefTask:
         return RefOutput(phase, psi, psi_raw, self.point.copy(), target, control, wrench,
                          self.k_eta * mu, self.adm.state[0:6].copy(),
                          self.adm.state[6:12].copy(), in_contact, safety,
-                         self.guard.excess if self.guard.yielding else 0.0)
+                         self.guard.opened)
 
 
 @dataclass

@@ -49,7 +49,11 @@ S_TRAVEL, S_ELAPSED, S_EXHAUSTED = 37, 38, 39
 """Regain budget: travel [m] and time [s] without contact; the budget is spent."""
 S_BOX_SET, S_BOX, S_AGE, S_ENGAGED = 40, 41, 47, 48
 """Ω_d: locked; (min xyz, max xyz) [m]; time since it was locked [s]; the six face triggers."""
-N_STATE = 54
+S_OPENED = 54
+"""The graded yield: how far the whole body's bounds are open, σ held from the yield while the
+contact force stays above the fade start (so a joint that left the q_dance band is not driven
+back into a partner who still presses)."""
+N_STATE = 55
 
 # -- parameter row ----------------------------------------------------------------------------
 P_K_ETA, P_B, P_K_P, P_PSI_THR, P_DT = 0, 1, 2, 3, 4
@@ -76,8 +80,9 @@ N_CONTACT = 16
 
 # -- output row: TaskOutput.values (36), then phase, ψ, ψ_raw, safety, σ -----------------------
 O_PHASE, O_PSI, O_PSI_RAW, O_SAFETY, O_YIELD = 36, 37, 38, 39, 40
-"""σ (``O_YIELD``): the yield's excess scale (:func:`~wholebody_controller.contact_safety.
-yield_scale`), 0 unless yielding; the QP opens the whole body's bounds by the largest."""
+"""``O_YIELD``: how far the link's yield opens the bounds (``S_OPENED``: the yield's largest
+excess scale σ, :func:`~wholebody_controller.contact_safety.yield_scale`, held until the force
+falls to the fade start); the QP opens the whole body's bounds by the largest."""
 N_OUT = 41
 
 

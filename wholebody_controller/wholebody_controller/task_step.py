@@ -94,6 +94,7 @@ from wholebody_controller.task_rows import (
     S_HAD,
     S_LAST,
     S_LAST_SET,
+    S_OPENED,
     S_PEAK,
     S_POINT,
     S_PSI_PREV,
@@ -188,8 +189,9 @@ def has_desired_force(p: Array) -> bool:
 def contact_safety(s: Array, p: Array, c: Array, pos: tuple[float, float, float]) -> tuple:
     """This cycle's contact safety: ``(approach scale, desired-force scale, has n̂, n̂, σ)``, n̂
     the unit contact force in the link frame, σ the yield's excess scale (0 unless yielding);
-    updates the guard and the regain budget (the link frame at ``pos`` [m]). A yield that ends
-    starts the task afresh."""
+    updates the guard, the regain budget (the link frame at ``pos`` [m]) and the opened bounds
+    (the largest σ of the yield, held until the force falls to the fade start). A yield that
+    ends starts the task afresh."""
     in_contact = c[C_IN] != 0.0
     normal = (0.0, 0.0, 0.0)
     has_normal = False
@@ -216,6 +218,9 @@ def contact_safety(s: Array, p: Array, c: Array, pos: tuple[float, float, float]
     sigma = 0.0
     if s[S_YIELDING] != 0.0:
         sigma = yield_scale(magnitude, p[P_LIMIT], p[P_FULL_EXCESS])
+        s[S_OPENED] = max(s[S_OPENED], sigma)
+    elif magnitude <= p[P_FADE] * p[P_LIMIT]:
+        s[S_OPENED] = 0.0  # the push is over: the bounds close, the band returns
     return scale, scale if gate else 0.0, has_normal, normal, sigma
 
 
@@ -413,7 +418,7 @@ def step_task(s: Array, p: Array, phi_gamma: Array, c: Array, rot: tuple, pos: t
         forget(s)
         vel = (0.0,) * 12
     write_output(s, p, vel, w, rotate(rot, mu), phase, psi_raw, scale, out)
-    out[O_YIELD] = sigma
+    out[O_YIELD] = s[S_OPENED]
 
 
 @jitable
