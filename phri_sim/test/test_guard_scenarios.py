@@ -1,11 +1,11 @@
 """Safe when following fails (the guard): the partner's shove and the skin faults that look like
 readings, on the short waltz through the real nodes.
 
-* The shove: the partner pushes the waist into the left forearm with 250 N for 3 s (the
-  ``push`` kind, :mod:`phri_sim.world.shove`). Before the graded yield (the arm yielding at 0.15
-  m/s, the body held in the q_dance band and Table II's 0.15): at 20 s of the full waltz the
-  waist took 1671 N peak / 139 N held and the torso struck the right upper arm. With it the
-  abdomen stays within its limits (220 N transient, 110 N held 0.5 s).
+* The shove: the partner pushes the waist into the left forearm with 250 N for 3 s from 20 s
+  (the ``push`` kind, :mod:`phri_sim.world.shove`). Before the graded yield (the arm yielding at
+  0.15 m/s, held in the q_dance band and Table II's 0.15) the waist took 1671 N peak / 139 N
+  held and the torso struck the right upper arm (this test failed there). With it the abdomen
+  stays within its limits (220 N transient, 110 N held 0.5 s): 162 / 70 N.
 * A frozen-but-noisy left-forearm patch, a half-dead one: before, the robot drove on on the lie
   (1.15 m and 0.75 m in 15 s, 83 / 80 N and 85 / 81 N on the waist, never stopping). With the
   skin's plausibility checks the patch is refused (diagnostics ERROR), the contact input goes
@@ -37,10 +37,16 @@ def _within_limits(block: dict[str, Any]) -> None:
     assert not limit_failures(block["forces"])
 
 
+SHOVE_TIME = 20.0
+"""When the shove starts [s]: in the first turn, where the shoved torso, not let through,
+strikes the right upper arm (earlier, at 5 s, even the old 0.15 m/s yield kept within the
+limits)."""
+
+
 @pytest.mark.ros
 def test_a_250_N_shove_for_3_s_is_yielded_to_within_the_abdomen_limits() -> None:
-    m = run_scenario("waltz", RunOptions(duration=FAULT_TIME + AFTER, seed=1,
-                                         shove=f"250N@{FAULT_TIME:g}s+3s"))
+    m = run_scenario("waltz", RunOptions(duration=SHOVE_TIME + 5.0, seed=0,
+                                         shove=f"250N@{SHOVE_TIME:g}s+3s"))
     assert m["shove"]["peak_applied"] == 250.0
     waist = m["fault"]["forces"]["person"]["person_waist"]
     assert waist["peak_force"] > 110.0  # the shove reached the limit: the yield was exercised

@@ -406,12 +406,8 @@ class RefController:
         lo, hi = ref_velocity_bounds(q, towards(self.lower, self.yield_lower),
                                      towards(self.upper, self.yield_upper), -vmax, vmax,
                                      self.config.horizon)
-        # The actuators' rated acceleration: within a·dt of the previous command (the yield's
-        # acceleration while yielding, by σ).
-        rated = np.asarray(self.config.acceleration_limits, float)
-        fast = np.maximum(np.asarray(self.config.yield_acceleration_limits, float), rated)
-        fast[:3] = rated[:3]
-        change = towards(rated, fast) * self.config.dt
+        # The actuators' rated acceleration: within a·dt of the previous command, yield or not.
+        change = np.asarray(self.config.acceleration_limits, float) * self.config.dt
         lo = np.clip(lo, self.previous - change, self.previous + change)
         hi = np.clip(hi, self.previous - change, self.previous + change)
         target = np.concatenate([o.target for o in outs])

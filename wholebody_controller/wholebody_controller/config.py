@@ -263,12 +263,6 @@ class ControllerConfig:
         "order (base x, y, yaw, left then right arm joints): each command differs from the "
         "previous one by at most this × the control period", "m/s² or rad/s²", 1e-3, 1e3,
         length=15)
-    yield_acceleration_limits: tuple[float, ...] = setting(
-        "yield_acceleration_limits", ROBOT_ACCELERATION_LIMITS, "acceleration of each axis in q "
-        "order while a link yields at the full excess (yield_full_excess; scaled from "
-        "acceleration_limits by the excess below it): a safety stop's deceleration, which the "
-        "actuators must be able to make", "m/s² or rad/s²", 1e-3, 1e3, length=15,
-        loosens="down")
     joint_ranges: tuple[JointRange, ...] = ()
     solver: str = setting("solver", "daqp",
                           "QP backend: daqp (exact, default) or osqp (warm-started)")

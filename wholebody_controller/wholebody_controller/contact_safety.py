@@ -17,10 +17,10 @@ regions). The yield speed is ``yield_speed`` + σ (``yield_speed_max`` − ``yie
 (:func:`yield_speed_of`), and the whole body's bounds open with σ while any link yields
 (:func:`~wholebody_controller.qp.yield_limits_into`): each arm joint may leave its position range
 (the waltz's q_dance band) by up to σ · ``yield_joint_range``, each axis may reach its actuator
-limit (``velocity_limits``, not Table II's single ``velocity_limit``) and change by up to its
-``yield_acceleration_limits`` in a period. The arm goes first: its joints accelerate faster than
-the 220 kg base, so in the first periods of a yield the QP's motion is mostly the arm's; the
-base takes over as the arm reaches the opened band.
+limit (``velocity_limits``, not Table II's single ``velocity_limit``), within the rated
+``acceleration_limits``. The arm goes first, and alone beyond the normal bounds: the base keeps
+its bounds (a fast base turn sweeps the other arm through the partner). The opening is held at
+the yield's largest σ until the force falls to the fade start.
 
 The transient limit (2F for most regions) is not a threshold of this response — the response is
 already at full yield at F — but the guard records whether it was ever exceeded, for diagnostics.

@@ -199,12 +199,12 @@ class WholeBodyController:
             self._warm_up()
 
     def _limits(self, config: ControllerConfig) -> Array:
-        """(9, n): q_l, q_u (the joints' own, within ``joint_ranges``), q̇_l, q̇_u of (22), the
+        """(8, n): q_l, q_u (the joints' own, within ``joint_ranges``), q̇_l, q̇_u of (22), the
         largest change of each command in one period (rated acceleration × dt), then the
         yield's (:func:`~wholebody_controller.qp.yield_limits_into`): the arm joints' ranges
         opened by ``yield_joint_range`` within their own limits, their actuator velocity limit
-        (``velocity_limits`` and the robot's, without Table II's ``velocity_limit``) and yield
-        acceleration × dt; the base's bounds stay the normal ones."""
+        (``velocity_limits`` and the robot's, without Table II's ``velocity_limit``); the base's
+        bounds stay the normal ones. The acceleration bound stays the rated one throughout."""
         lower = self._robot_position_limits[:, 0].copy()
         upper = self._robot_position_limits[:, 1].copy()
         index = {name: i for i, name in enumerate(self.joint_names)}
@@ -222,11 +222,9 @@ class WholeBodyController:
         self.position_lower, self.position_upper = lower, upper
         self.velocity_lower, self.velocity_upper = -vmax, vmax
         rated = np.asarray(config.acceleration_limits, dtype=np.float64)
-        fast = np.asarray(config.yield_acceleration_limits, dtype=np.float64)
-        for name, value in (("acceleration_limits", rated), ("yield_acceleration_limits", fast)):
-            if value.shape != (self.n,):
-                raise ValueError(f"parameter {name!r} has {value.size} entries, the robot "
-                                 f"{self.n} axes (base x, y, yaw, arms)")
+        if rated.shape != (self.n,):
+            raise ValueError(f"parameter 'acceleration_limits' has {rated.size} entries, the "
+                             f"robot {self.n} axes (base x, y, yaw, arms)")
         opened = config.safety.yield_joint_range
         robot_lower, robot_upper = self._robot_position_limits.T
         yield_lower, yield_upper = lower.copy(), upper.copy()
@@ -235,13 +233,12 @@ class WholeBodyController:
         actuator = np.minimum(self._robot_velocity_limits,
                               np.asarray(config.velocity_limits, dtype=np.float64))
         actuator = np.maximum(actuator, vmax)
-        fast = np.maximum(fast, rated)
         # The base keeps its normal bounds: a fast base turn sweeps the other arm through the
         # partner (docs: Contact safety, "The yield is graded").
-        actuator[:3], fast[:3] = vmax[:3], rated[:3]
+        actuator[:3] = vmax[:3]
         return np.ascontiguousarray(
-            [lower, upper, -vmax, vmax, rated * config.dt, yield_lower, yield_upper, actuator,
-             fast * config.dt], dtype=np.float64)
+            [lower, upper, -vmax, vmax, rated * config.dt, yield_lower, yield_upper, actuator],
+            dtype=np.float64)
 
     def _warm_up(self) -> None:
         """Run the kernel once on scratch copies: compiles (or loads) it now, not in the first

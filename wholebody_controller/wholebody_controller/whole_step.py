@@ -94,7 +94,7 @@ def step_robot(state: Array, params: Array, phi_gamma: Array, contacts: Array, x
         bodies: body id of each link; chains: (k, L, 3) each link's :func:`joint_chain`.
         xaxis, xanchor: MuJoCo's world joint axes and anchors (njnt×3).
         q: configuration (n) [m, rad]; previous: the previous command u (n);
-            limits: (9, n) q_l, q_u, q̇_l, q̇_u, a·dt (:func:`velocity_bounds_into`) and the
+            limits: (8, n) q_l, q_u, q̇_l, q̇_u, a·dt (:func:`velocity_bounds_into`) and the
             yield's (:func:`~wholebody_controller.qp.yield_limits_into`);
             horizon h [s]; epsilon ε of (23).
         outputs, target, jacobian, hessian, gradient, lower, upper: written: the tasks' rows
@@ -124,7 +124,7 @@ def qp_of_step(outputs: Array, jacobian: Array, q: Array, previous: Array, limit
                horizon: float, epsilon: float, target: Array, hessian: Array, gradient: Array,
                lower: Array, upper: Array) -> bool:
     """(22)–(23) of a step: the targets b_i and weights ψ_i from the tasks' output rows
-    (k × N_OUT), J (6k × n, in u), bounds from q, the previous command and ``limits`` (9×n:
+    (k × N_OUT), J (6k × n, in u), bounds from q, the previous command and ``limits`` (8×n:
     q_l, q_u, q̇_l, q̇_u, a·dt, then the yield's), h and ε; writes ``target``, ``hessian``,
     ``gradient``, ``lower``, ``upper``. While a link yields, the bounds are opened by the
     largest excess scale σ of the tasks (:func:`~wholebody_controller.qp.yield_limits_into`).
