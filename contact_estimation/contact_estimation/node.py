@@ -51,8 +51,15 @@ from contact_estimation.estimator import (
     InvalidTaxelData,
 )
 from contact_estimation.markers import MarkerScales, MarkerThrottle, contact_markers
+from contact_estimation.plausibility import (
+    DeadRegionDetector,
+    FrozenDetector,
+    PlausibilityConfig,
+    SkinImplausible,
+)
 from phri_common.contact_cdr import contact_to_cdr
 from phri_common.params import ParamSpec, ParamValue
+from phri_common.protected import UNLOCK_PARAM
 from phri_common.records import ContactState, TaxelArray
 from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
@@ -81,9 +88,25 @@ PARAMS: list[ParamSpec] = [
     ParamSpec("max_taxel_force", DEFAULT_MAX_TAXEL_FORCE, "the skin's rated range: a frame "
               "with any taxel |force| above it is refused as corrupted (the default skin "
               "saturates at ≈ 32 N)", unit="N", low=MAX_TAXEL_FORCE_RANGE[0],
-              high=MAX_TAXEL_FORCE_RANGE[1]),
+              high=MAX_TAXEL_FORCE_RANGE[1], loosens="up"),
     ParamSpec("stuck_timeout", 0.5, "a touched patch whose frame repeats bit for bit for longer "
-              "than this is stuck: its frames are refused", unit="s", low=0.01, high=60.0),
+              "than this is stuck: its frames are refused", unit="s", low=0.01, high=60.0,
+              loosens="up"),
+    ParamSpec("plausibility_dead_time", 1.0, "a taxel whose force has not changed for this "
+              "long is silent (0 = no dead-region check)", unit="s", low=0.0, high=60.0,
+              loosens="up_or_off"),
+    ParamSpec("plausibility_dead_fraction", 0.25, "a patch with a larger share of silent taxels "
+              "is a dead region: its frames are refused, diagnostics ERROR", low=0.0, high=1.0,
+              loosens="up"),
+    ParamSpec("plausibility_frozen_window", 2.0, "a link touched this long whose contact force "
+              "and centre stay within the two bounds below is frozen: its frames are refused, "
+              "diagnostics ERROR (0 = no frozen check)", unit="s", low=0.0, high=60.0,
+              loosens="up_or_off"),
+    ParamSpec("plausibility_frozen_force_ratio", 0.05, "frozen: contact force range below this "
+              "fraction of its mean over the window", low=0.0, high=1.0, loosens="down"),
+    ParamSpec("plausibility_frozen_center_range", 2e-3, "frozen: contact centre range below "
+              "this on every axis over the window", unit="m", low=0.0, high=1.0,
+              loosens="down"),
     ParamSpec("kernel", KERNELS[0], "how the per-link sums are computed: numba (compiled, "
               "default) or numpy (the reference); same states to rounding"),
     ParamSpec("publish_markers", True, "publish rviz markers on contacts/markers"),
@@ -100,6 +123,7 @@ PARAMS: list[ParamSpec] = [
               unit="frames", low=1, high=1_000_000),
     ParamSpec("diagnostics_period", 1.0, "period of the /diagnostics report", unit="s",
               low=0.05, high=3600.0),
+    UNLOCK_PARAM,
 ]
 
 TAXEL_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
@@ -122,6 +146,17 @@ def config_from_values(values: dict[str, ParamValue]) -> EstimatorConfig:
         max_taxel_force=float(values["max_taxel_force"]),
         stuck_timeout=float(values["stuck_timeout"]),
         kernel=str(values["kernel"]),
+    )
+
+
+def plausibility_from_values(values: dict[str, ParamValue]) -> PlausibilityConfig:
+    """The skin-alone checks' settings (:mod:`contact_estimation.plausibility`)."""
+    return PlausibilityConfig(
+        dead_time=float(values["plausibility_dead_time"]),
+        max_dead_fraction=float(values["plausibility_dead_fraction"]),
+        frozen_window=float(values["plausibility_frozen_window"]),
+        frozen_force_ratio=float(values["plausibility_frozen_force_ratio"]),
+        frozen_center_range=float(values["plausibility_frozen_center_range"]),
     )
 
 
@@ -158,6 +193,10 @@ class ContactEstimationNode(Node):
         # from its serial thread while the executor runs parameter changes.
         self._lock = threading.Lock()
         self._estimator = ContactEstimator(self._patch_links, config_from_values(self._values))
+        plausibility = plausibility_from_values(self._values)
+        self._dead = DeadRegionDetector(plausibility)
+        self._frozen = FrozenDetector(plausibility)
+        self._implausible: dict[str, str] = dict.fromkeys(patches, "")
         self._scales = self._marker_scales(self._values)
         self._publish_markers = bool(self._values["publish_markers"])
         self._geometry_interval = int(self._values["geometry_check_interval"])
@@ -200,8 +239,10 @@ class ContactEstimationNode(Node):
 
     def _on_change(self, values: dict[str, ParamValue]) -> None:
         config = config_from_values(values)  # raises ValueError → change refused
+        plausibility = plausibility_from_values(values)
         with self._lock:
             self._estimator.reconfigure(config)
+            self._dead.config = self._frozen.config = plausibility
         self._scales = self._marker_scales(values)
         self._publish_markers = bool(values["publish_markers"])
         self._geometry_interval = int(values["geometry_check_interval"])
@@ -222,6 +263,7 @@ class ContactEstimationNode(Node):
             try:
                 self._check_frame_id(patch, frame_id)
                 state = self._estimator.update_table(patch, table, stamp_ns, check)
+                self._check_plausible(patch, table[:, 6], state)
             except InvalidTaxelData as err:
                 self._refuse(patch, err)
                 return
@@ -250,10 +292,31 @@ class ContactEstimationNode(Node):
             try:
                 self._check_frame_id(patch, taxels.frame_id)
                 state = self._estimator.update(patch, taxels, check_geometry=check)
+                self._check_plausible(patch, taxels.forces, state)
             except InvalidTaxelData as err:
                 self._refuse(patch, err)
                 return
             self._publish(state)
+
+    def _check_plausible(self, patch: str, forces: Any, state: ContactState) -> None:
+        """The skin-alone plausibility checks on an accepted frame (:mod:`~contact_estimation.
+        plausibility`); raises :class:`SkinImplausible`, remembered for diagnostics (ERROR)
+        until a frame of the patch passes again."""
+        try:
+            self._dead.check(patch, forces, state.stamp_ns)
+            force = state.force.tolist()
+            self._frozen.check(patch, math.sqrt(force[0] ** 2 + force[1] ** 2 + force[2] ** 2),
+                               tuple(state.center.tolist()),
+                               state.in_contact, state.stamp_ns)
+        except SkinImplausible as err:
+            if not self._implausible[patch]:
+                self.get_logger().error(f"{err}: its link's contact state is withheld (the "
+                                        "controller's input goes stale: zero command)")
+            self._implausible[patch] = str(err)
+            raise
+        if self._implausible[patch]:
+            self.get_logger().info(f"patch {patch!r} plausible again")
+        self._implausible[patch] = ""
 
     def _count_frame(self, patch: str) -> bool:
         """Count a frame of ``patch``; whether its geometry is to be compared with the known
@@ -279,6 +342,7 @@ class ContactEstimationNode(Node):
         """``~/reset_geometry``: every patch forgets its geometry; its next frame sets it."""
         with self._lock:
             self._estimator.forget_geometry()
+            self._dead.forget()
         response.success = True
         response.message = (f"geometry of {len(self._patch_links)} patch(es) forgotten: each "
                             "patch's next frame sets it")
@@ -303,16 +367,22 @@ class ContactEstimationNode(Node):
             mismatches, wrong = self._mismatches[patch], self._mismatch_taxels[patch]
             taxels = self._estimator.taxel_count(patch)
             last_error = self._last_error[patch]
+            implausible = self._implausible[patch]
+            silent = self._dead.silent.get(patch, 0)
         level = DiagnosticStatus.OK if refused == 0 and received else DiagnosticStatus.WARN
         message = "no frames yet" if received == 0 else (
             "ok" if refused == 0 else f"{refused} frame(s) refused")
+        if implausible:
+            level, message = DiagnosticStatus.ERROR, f"implausible skin: {implausible}"
+
         if mismatches:
             message += (f", {mismatches} of another geometry ({wrong} taxels, the patch has "
                         f"{taxels})")
         values = {"frames_received": received, "frames_refused": refused,
                   "taxels": "-" if taxels is None else taxels,
                   "geometry_mismatches": mismatches, "mismatch_taxels": wrong,
-                  "last_error": last_error}
+                  "silent_taxels": silent,
+                  "implausible": implausible or "no", "last_error": last_error}
         return DiagnosticStatus(
             level=level, name=f"contact_estimation: {patch}",
             hardware_id=self._patch_links[patch], message=message,

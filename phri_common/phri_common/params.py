@@ -37,6 +37,10 @@ class ParamSpec:
         length: required array length (``None`` = any).
         min_length: minimum array length.
         read_only: refused after start-up (topic and patch wiring).
+        loosens: a protected safety setting (:mod:`phri_common.protected`): which change
+            loosens it at run time — ``up`` (a larger value), ``down`` (a smaller one),
+            ``magnitude`` (a larger norm of the array), ``up_or_off`` (larger, or 0 = check
+            off); '' = not protected.
     """
 
     name: str
@@ -48,6 +52,7 @@ class ParamSpec:
     length: int | None = None
     min_length: int = 0
     read_only: bool = False
+    loosens: str = ""
 
     @property
     def is_array(self) -> bool:
@@ -154,7 +159,8 @@ def markdown_table(specs: Sequence[ParamSpec]) -> str:
             assert isinstance(spec.default, list)
             elem = type(spec.default[0]).__name__ if spec.default else "str"
             kind = f"{elem}[]"
-        ro = " (read-only)" if spec.read_only else ""
+        ro = " (read-only)" if spec.read_only else (
+            " (protected: loosening needs the unlock)" if spec.loosens else "")
         rows.append(
             f"| `{spec.name}` | {kind} | {_cell(spec.unit)} | `{spec.default!r}` "
             f"| {spec.range_text()} | {_cell(spec.description)}{ro} |"

@@ -17,6 +17,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from phri_common.params import ParameterValueError, ParamSpec, ParamValue
+from phri_common.protected import UNLOCK_PARAM, loosening_changes, refusal
 
 
 def _descriptor(spec: ParamSpec) -> ParameterDescriptor:
@@ -90,24 +91,57 @@ def declare_parameters(
             raise ParameterValueError(f"parameter '{spec.name}' refused: {err}") from err
         values[spec.name] = spec.check(raw)
 
+    protected = any(spec.loosens for spec in specs)
+    if protected and UNLOCK_PARAM.name not in by_name and not node.has_parameter(
+            UNLOCK_PARAM.name):
+        raise ValueError(f"protected settings need the '{UNLOCK_PARAM.name}' parameter")
+    node.add_on_set_parameters_callback(_validator(node, values, by_name, on_change, protected))
+    return values
+
+
+def _validator(node: Node, values: dict[str, ParamValue], by_name: dict[str, ParamSpec],
+               on_change: Callable[[dict[str, ParamValue]], None] | None, protected: bool
+               ) -> Callable[[list[Parameter]], SetParametersResult]:
+    """The set-parameters callback: each value checked against its spec, a loosening of a
+    protected setting refused unless unlocked (:mod:`phri_common.protected`), ``on_change``
+    called; accepted loosenings and a change of the unlock logged at WARN."""
+
     def _validate(params: list[Parameter]) -> SetParametersResult:
         proposed = dict(values)
         try:
+            changed = {}
             for p in params:
                 spec = by_name.get(p.name)
                 if spec is None:
                     continue
-                proposed[p.name] = spec.check(p.value)
+                proposed[p.name] = changed[p.name] = spec.check(p.value)
+            loosening = loosening_changes(by_name, values, changed) if protected else []
+            if loosening and not _unlocked(node, proposed):
+                raise ValueError(refusal(loosening))
             if on_change is not None:
                 on_change(proposed)
         except (ParameterValueError, ValueError) as err:
             node.get_logger().warning(str(err))
             return SetParametersResult(successful=False, reason=str(err))
+        for line in loosening:
+            node.get_logger().warning(f"protected safety setting loosened (unlocked): {line}")
+        unlock = changed.get(UNLOCK_PARAM.name)
+        if unlock is not None and unlock != values.get(UNLOCK_PARAM.name):
+            state = "UNLOCKED" if unlock else "locked again"
+            node.get_logger().warning(f"protected safety settings {state} "
+                                      f"({UNLOCK_PARAM.name} = {unlock})")
         values.update(proposed)
         return SetParametersResult(successful=True)
 
-    node.add_on_set_parameters_callback(_validate)
-    return values
+    return _validate
+
+
+def _unlocked(node: Node, proposed: dict[str, ParamValue]) -> bool:
+    """Whether the unlock is on in ``proposed`` (declared in this list) or on the node."""
+    if UNLOCK_PARAM.name in proposed:
+        return bool(proposed[UNLOCK_PARAM.name])
+    return bool(node.has_parameter(UNLOCK_PARAM.name)
+                and node.get_parameter(UNLOCK_PARAM.name).value)
 
 
 def param_value(values: dict[str, ParamValue], name: str) -> Any:

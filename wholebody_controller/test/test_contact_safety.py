@@ -21,6 +21,8 @@ from wholebody_controller.contact_safety import (
     SafetyConfig,
     approach_scale,
     limit_approach,
+    yield_scale,
+    yield_speed_of,
 )
 from wholebody_controller.controller import KinematicsModel, WholeBodyController
 from wholebody_controller.task_rows import N_STATE, link_params
@@ -126,7 +128,7 @@ def test_a_push_at_the_limit_makes_the_link_yield_along_the_push() -> None:
     push = np.array([0.0, 0.0, -1.0])  # the person pushes the link down
     out = step(task, press(50.0 * push, 0))
     assert out.safety is Safety.OK  # type: ignore[attr-defined]
-    out = step(task, press(120.0 * push, 1))
+    out = step(task, press(110.0 * push, 1))
     assert out.safety is Safety.YIELDING and out.psi == 1.0  # type: ignore[attr-defined]
     np.testing.assert_allclose(out.target, [0, 0, -0.15, 0, 0, 0], atol=1e-12)  # type: ignore
     out = step(task, press(60.0 * push, 2))
@@ -153,6 +155,39 @@ def test_desired_force_acts_only_in_contact_within_the_regain_budget() -> None:
     # A new touch re-arms it.
     out = step(task, touched, pos)
     assert out.safety is Safety.OK and out.wrench[1] < -9.0 + 10.0  # type: ignore[attr-defined]
+
+
+@pytest.mark.parametrize(("force", "speed"), [
+    (110.5, 0.15 + 0.5 / 110.0 * 0.85), (137.5, 0.15 + 0.25 * 0.85),
+    (165.0, 0.15 + 0.5 * 0.85), (220.0, 1.0), (2000.0, 1.0)])
+def test_the_yield_speed_grows_with_the_excess_over_the_limit(force: float, speed: float) -> None:
+    """yield_speed (0.15 m/s) at F = 110 N, linear in the excess, yield_speed_max (1 m/s) from
+    (1 + yield_full_excess)·F = 220 N on; the output row carries the excess scale σ."""
+    task = make_task()
+    push = np.array([0.6, 0.0, -0.8])
+    out = step(task, press(force * push, 0))
+    assert out.safety is Safety.YIELDING  # type: ignore[attr-defined]
+    np.testing.assert_allclose(out.target[0:3], speed * push, atol=1e-12)  # type: ignore
+    assert task.yield_excess == pytest.approx(min((force - 110.0) / 110.0, 1.0))
+
+
+def test_the_bounds_stay_open_until_the_push_is_over() -> None:
+    """The yield's opening (σ at its largest) is held while the force stays above the fade start
+    (a partner still pushing at 70 N after a 220 N shove is not pushed back by the band), and
+    closes once it falls to it."""
+    task = make_task()
+    push = np.array([0.0, 0.0, -1.0])
+    for k, (force, opened) in enumerate([(165.0, 0.5), (220.0, 1.0), (120.0, 1.0), (70.0, 1.0),
+                                         (56.0, 1.0), (50.0, 0.0), (120.0, 0.0909)]):
+        step(task, press(force * push, k))
+        assert task.yield_excess == pytest.approx(opened, abs=1e-4), (force, opened)
+
+
+def test_yield_scale_and_speed() -> None:
+    assert yield_scale(100.0, 110.0, 1.0) == 0.0 and yield_scale(165.0, 110.0, 1.0) == 0.5
+    assert yield_scale(165.0, 110.0, 0.25) == 1.0
+    assert yield_speed_of(0.5, 0.15, 1.0) == pytest.approx(0.575)
+    assert yield_speed_of(1.0, 0.15, 0.05) == 0.15  # never below yield_speed
 
 
 # -- closed loop with a compliant hand ----------------------------------------------------------
@@ -208,3 +243,56 @@ def test_never_commands_towards_a_contact_at_or_above_the_limit(forces: list[flo
         out = step(task, press(f * push, k))
         if task.yielding:
             assert float(np.dot(out.target[0:3], push)) > 0.0  # type: ignore[attr-defined]
+
+
+# -- the whole body while yielding ----------------------------------------------------------------
+def _band_robot(kin: KinematicsModel, **safety: float) -> tuple[WholeBodyController, np.ndarray]:
+    """The left forearm task on the real robot, arms held in a ±0.03 rad q_dance band, Table
+    II's 0.15 velocity limit, the default actuator limits; q at the band's centre."""
+    from wholebody_controller.config import dance_ranges
+
+    q = np.array([0.0, 0.0, 0.0, 0.3, -1.2, 1.5, -1.0, -1.57, 0.0,
+                  -0.3, -1.9, -1.5, -1.0, 1.57, 0.0])
+    config = ControllerConfig(links=(LinkTaskConfig(LINK, WALTZ),),
+                              joint_ranges=dance_ranges(kin.joint_names[3:], q[3:], 0.03),
+                              safety=SafetyConfig(**safety))  # type: ignore[arg-type]
+    return WholeBodyController(kin, config), q
+
+
+def _yield_run(kin: KinematicsModel, force: float, periods: int = 60) -> tuple[np.ndarray, ...]:
+    """``periods`` cycles of a push of ``force`` [N] on the left forearm (world −y) with the
+    robot moving as commanded; the commands and the configurations."""
+    ctl, q = _band_robot(kin)
+    commands, configs = [], [q.copy()]
+    for k in range(periods):
+        kin.update(q)
+        rot, _ = kin.link_pose(LINK)
+        state = ContactState(LINK, k, True, CENTER, rot.T @ np.array([0.0, -force, 0.0]),
+                             np.zeros(3), CENTER - 0.01, CENTER + 0.01, 10)
+        res = ctl.step(q, {LINK: state})
+        commands.append(res.command.copy())
+        q = q + 0.01 * res.qdot
+        configs.append(q.copy())
+    return np.array(commands), np.array(configs)
+
+
+def test_a_yield_above_the_limit_opens_the_band_and_the_speed_limit_within_the_actuators(
+        kin: KinematicsModel) -> None:
+    """At F the whole body keeps Table II's 0.15 and the q_dance band; at the full excess (2F)
+    the arm leaves the band (by up to yield_joint_range) and its joints exceed 0.15 up to their
+    actuator limits, the base keeps its bounds (a fast base turn sweeps the other arm through
+    the partner), and every command stays within the rated acceleration × dt of the previous
+    one."""
+    ctl, _ = _band_robot(kin)
+    at_limit, q_at = _yield_run(kin, 110.0)
+    assert np.max(np.abs(at_limit)) <= 0.15 + 1e-9
+    assert np.max(np.abs(q_at[:, 3:] - q_at[0, 3:])) <= 0.03 + 0.15 * 0.01 + 1e-9
+    full, q_full = _yield_run(kin, 250.0)
+    assert np.max(np.abs(full[:, 3:])) > 0.3  # the arm: beyond Table II's 0.15
+    assert np.max(np.abs(full[:, :3])) <= 0.15 + 1e-9  # the base keeps its bounds
+    assert np.max(np.abs(q_full[:, 3:] - q_full[0, 3:])) > 0.06  # out of the ±0.03 band
+    assert np.max(np.abs(q_full[:, 3:] - q_full[0, 3:])) <= 0.03 + 0.3 + 0.05
+    actuator = ctl.limits[7]
+    assert np.all(np.abs(full) <= actuator + 1e-9)
+    steps = np.diff(np.vstack([np.zeros(15), full]), axis=0)
+    assert np.all(np.abs(steps) <= ctl.limits[4] + 1e-9)

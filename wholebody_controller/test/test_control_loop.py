@@ -22,8 +22,9 @@ from phri_common.contact import contact_to_msg
 from phri_common.contact_cdr import contact_from_cdr
 from phri_common.records import ContactState
 from wholebody_controller.messages import loop_status
-from wholebody_controller.node import CONTACT_QOS, WholeBodyControllerNode
+from wholebody_controller.node import WholeBodyControllerNode
 from wholebody_controller.parameters import control_loop_mode
+from wholebody_controller.qos import CONTACT_QOS
 
 
 @pytest.mark.parametrize(("value", "sim_time", "mode"), [

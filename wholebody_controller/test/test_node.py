@@ -161,7 +161,13 @@ def test_parameters_validated_and_applied(harness: Harness) -> None:
     assert not result[0].successful and "left_forearm_link.damping" in result[0].reason
     result = node.set_parameters([Parameter("solver", value="quadprog")])
     assert not result[0].successful and "solver" in result[0].reason
-    result = node.set_parameters([Parameter("left_forearm_link.priority_lock", value=1.0),
+    # A desired force of 10 N where there was none loosens a protected setting: refused until
+    # the explicit unlock (Protected settings), then accepted.
+    result = node.set_parameters([Parameter("left_forearm_link.desired_force",
+                                            value=[0.0, -10.0, 0.0])])
+    assert not result[0].successful and "safety_settings_unlocked" in result[0].reason
+    result = node.set_parameters([Parameter("safety_settings_unlocked", value=True),
+                                  Parameter("left_forearm_link.priority_lock", value=1.0),
                                   Parameter("left_forearm_link.desired_force",
                                             value=[0.0, -10.0, 0.0]),
                                   Parameter("solver", value="osqp")])
@@ -178,6 +184,87 @@ def test_parameters_validated_and_applied(harness: Harness) -> None:
     config = node.freshness.config
     assert (config.contact_timeout, config.joint_state_timeout, config.odom_timeout) == (
         0.5, 0.25, 0.75)
+
+
+ATTACKS = [("left_forearm_link.force_limit", 10_000.0), ("yield_speed", 0.0),
+           ("contact_timeout", 10.0), ("joint_state_timeout", 10.0), ("odom_timeout", 10.0),
+           ("left_forearm_link.desired_force", [0.0, -1000.0, 0.0]),
+           ("max_contact_force", 1e6), ("yield_speed_max", 0.0), ("regain_time", 60.0)]
+"""The reviewer's run-time changes that switched the safety settings off quietly."""
+
+
+@pytest.mark.ros
+def test_protected_settings_are_not_loosened_at_run_time_without_the_unlock(
+        ros_context: object) -> None:
+    """Each loosening over the parameter services is refused, naming the setting and the
+    unlock; tightening needs no unlock; after the explicit unlock the loosening is accepted
+    (and logged), except a force limit above the ISO/TS 15066 table, which needs the
+    start-up override as well."""
+    node = WholeBodyControllerNode(kinematics=FakeKinematics(), context=ros_context)
+    try:
+        for name, value in ATTACKS:
+            result = node.set_parameters([Parameter(name, value=value)])[0]
+            assert not result.successful and name in result.reason, (name, result.reason)
+            assert "safety_settings_unlocked" in result.reason
+            assert node.get_parameter(name).value != value
+        assert node.controller is not None
+        assert node.controller.config.link("left_forearm_link").force_limit == 110.0
+        tighter = node.set_parameters([Parameter("left_forearm_link.force_limit", value=90.0),
+                                       Parameter("contact_timeout", value=0.05),
+                                       Parameter("yield_speed", value=0.3)])
+        assert all(r.successful for r in tighter)
+        assert node.set_parameters([Parameter("safety_settings_unlocked", value=True)])[
+            0].successful
+        for name, value in ATTACKS[1:]:
+            assert node.set_parameters([Parameter(name, value=value)])[0].successful, name
+        above = node.set_parameters([Parameter("left_forearm_link.force_limit",
+                                               value=200.0)])[0]
+        assert not above.successful and "iso15066_override" in above.reason
+        assert node.set_parameters([Parameter("left_forearm_link.force_limit", value=110.0)])[
+            0].successful
+        assert node.set_parameters([Parameter("safety_settings_unlocked", value=False)])[
+            0].successful
+        assert not node.set_parameters([Parameter("odom_timeout", value=20.0)])[0].successful
+    finally:
+        node.destroy_node()
+
+
+@pytest.mark.ros
+def test_force_limits_above_the_iso_table_need_the_start_up_override(
+        ros_context: object, capfd: pytest.CaptureFixture[str]) -> None:
+    raised = [Parameter("left_forearm_link.force_limit", value=150.0),
+              Parameter("left_forearm_link.transient_force_limit", value=300.0)]
+    with pytest.raises(ValueError, match="iso15066_override"):
+        WholeBodyControllerNode(kinematics=FakeKinematics(), context=ros_context,
+                                node_name="wbc_iso_refused", parameter_overrides=raised)
+    node = WholeBodyControllerNode(
+        kinematics=FakeKinematics(), context=ros_context, node_name="wbc_iso_override",
+        parameter_overrides=[*raised, Parameter("iso15066_override", value=True)])
+    try:
+        assert node.controller is not None
+        assert node.controller.config.link("left_forearm_link").force_limit == 150.0
+        err = capfd.readouterr().err
+        assert "ERROR" in err and "iso15066_override" in err and "150 N (table 110 N)" in err
+    finally:
+        node.destroy_node()
+
+
+@pytest.mark.ros
+def test_a_safe_stop_sends_an_exact_zero_until_reset(harness: Harness) -> None:
+    """A plausibility verdict (e.g. the skin-vs-torque check) trips the safe stop: every output
+    exactly zero — no band keeping, no task — and diagnostics ERROR, until ~/reset."""
+    node = harness.node
+    assert harness.run(lambda: nonzero(harness.left), force=np.array([0.0, 0.0, 12.0]))
+    node.trip_safe_stop("skin_silent", "test verdict")
+    count = len(harness.left)
+    assert harness.run(lambda: len(harness.left) > count + 5, force=np.array([0.0, 0.0, 12.0]))
+    assert all(v == 0.0 for msg in harness.left[count + 2:] for v in msg.data)
+    assert harness.twists[-1].linear.x == 0.0 and harness.twists[-1].angular.z == 0.0
+    from wholebody_controller.messages import safe_stop_status
+    assert safe_stop_status("n", node.safe_stop).level == b"\x02"  # ERROR
+    res = node._reset(Trigger.Request(), Trigger.Response())
+    assert res.success and "skin_silent" in res.message and not node.safe_stop.active
+    assert harness.run(lambda: nonzero(harness.left), force=np.array([0.0, 0.0, 12.0]))
 
 
 @pytest.mark.ros

@@ -237,7 +237,7 @@ def test_a_burst_of_contact_states_is_queued_not_dropped(ros_context: object) ->
     from rclpy.qos import QoSProfile
     from sensor_msgs.msg import PointCloud2
 
-    from wholebody_controller.node import CONTACT_QOS
+    from wholebody_controller.qos import CONTACT_QOS
 
     wait_s = 60.0  # bounds a stalled machine only
     controller = RecordingNode(ros_context)

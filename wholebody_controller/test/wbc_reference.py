@@ -71,13 +71,23 @@ class RefGuard:
     def __init__(self, limit: float, safety: SafetyConfig) -> None:
         self.limit, self.safety = limit, safety
         self.yielding = False
+        self.excess = 0.0
+        """σ: (‖f‖ − F) / (e·F) within [0, 1] while yielding, else 0."""
+        self.opened = 0.0
+        """The bounds' opening: the largest σ of the yield, until ‖f‖ ≤ a·F."""
 
     def update(self, force: float) -> float:
         """The approach scale s of this cycle's force [N]."""
         threshold = self.safety.reset_ratio * self.limit if self.yielding else self.limit
         self.yielding = force >= threshold
+        self.excess = 0.0
         if self.yielding:
+            self.excess = float(np.clip((force - self.limit)
+                                        / (self.safety.full_excess * self.limit), 0.0, 1.0))
+            self.opened = max(self.opened, self.excess)
             return 0.0
+        if force <= self.safety.fade_start * self.limit:
+            self.opened = 0.0
         start = self.safety.fade_start * self.limit
         return 1.0 if force <= start else float(np.clip((self.limit - force)
                                                          / (self.limit - start), 0.0, 1.0))
@@ -116,6 +126,8 @@ class RefOutput:
     deflection_velocity: Array
     in_contact: bool
     safety: Safety
+    excess: float = 0.0
+    """How far the yield opens the bounds (the largest σ, until ‖f‖ ≤ a·F)."""
 
 
 class RefRegion:
@@ -261,7 +273,9 @@ class RefTask:
             return target, control
         n = rot @ (force / np.linalg.norm(force))
         if self.guard.yielding:
-            away = np.concatenate([self.safety.yield_speed * n, np.zeros(3)])
+            low = self.safety.yield_speed
+            speed = low + self.guard.excess * max(self.safety.yield_speed_max - low, 0.0)
+            away = np.concatenate([speed * n, np.zeros(3)])
             return away, away.copy()
         out = []
         for v in (target, control):
@@ -324,7 +338,8 @@ class RefTask:
                   else Safety.CONTACT_LOST if self.regain.exhausted else Safety.OK)
         return RefOutput(phase, psi, psi_raw, self.point.copy(), target, control, wrench,
                          self.k_eta * mu, self.adm.state[0:6].copy(),
-                         self.adm.state[6:12].copy(), in_contact, safety)
+                         self.adm.state[6:12].copy(), in_contact, safety,
+                         self.guard.opened)
 
 
 @dataclass
@@ -355,6 +370,16 @@ class RefController:
         self.vmax = np.minimum(np.minimum(np.asarray(kin.velocity_limits, float),
                                           config.velocity_limit),
                                np.asarray(config.velocity_limits, float))
+        # While a link yields: the arm joints' ranges opened by yield_joint_range within their
+        # own limits, the actuators' velocity (no Table II bound), the yield acceleration.
+        opened = config.safety.yield_joint_range
+        self.yield_lower, self.yield_upper = self.lower.copy(), self.upper.copy()
+        self.yield_lower[3:] = np.maximum(limits[3:, 0], self.lower[3:] - opened)
+        self.yield_upper[3:] = np.minimum(limits[3:, 1], self.upper[3:] + opened)
+        self.yield_vmax = np.maximum(np.minimum(np.asarray(kin.velocity_limits, float),
+                                                np.asarray(config.velocity_limits, float)),
+                                     self.vmax)
+        self.yield_vmax[:3] = self.vmax[:3]  # the base keeps its bounds (docs: the arm yields)
 
     def step(self, q: Array, contacts: Mapping[str, ContactState]) -> RefStep:
         self.kin.update(q)
@@ -370,9 +395,18 @@ class RefController:
         stacked = np.concatenate(jacs)
         c, s = math.cos(yaw), math.sin(yaw)
         stacked[:, 0:2] = stacked[:, 0:2] @ np.array(((c, -s), (s, c)))
-        lo, hi = ref_velocity_bounds(q, self.lower, self.upper, -self.vmax, self.vmax,
+        # The yield opens every bound by the largest excess scale σ of the links.
+        sigma = max((o.excess for o in outs), default=0.0)
+
+        def towards(normal: Array, opened: Array) -> Array:
+            with np.errstate(invalid="ignore"):
+                return np.where(normal == opened, normal, normal + sigma * (opened - normal))
+
+        vmax = towards(self.vmax, self.yield_vmax)
+        lo, hi = ref_velocity_bounds(q, towards(self.lower, self.yield_lower),
+                                     towards(self.upper, self.yield_upper), -vmax, vmax,
                                      self.config.horizon)
-        # The actuators' rated acceleration: within a·dt of the previous command.
+        # The actuators' rated acceleration: within a·dt of the previous command, yield or not.
         change = np.asarray(self.config.acceleration_limits, float) * self.config.dt
         lo = np.clip(lo, self.previous - change, self.previous + change)
         hi = np.clip(hi, self.previous - change, self.previous + change)

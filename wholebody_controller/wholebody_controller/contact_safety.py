@@ -8,8 +8,19 @@ Force limits (ISO/TS 15066, :mod:`phri_common.iso15066`). Each link has a quasi-
 * a·F < ‖f‖ < F: the manual desired force and every commanded motion *towards* the contact (along
   −n̂, n̂ the unit force on the link, which points away from the person) are scaled by
   s = (F − ‖f‖) / ((1 − a) F), falling linearly to 0 at F (:func:`approach_scale`);
-* ‖f‖ ≥ F: the link *yields* — it moves away from the contact along n̂ at ``yield_speed``, with the
-  highest weight, and never towards it — until ‖f‖ falls below r·F (``reset_ratio`` r, hysteresis).
+* ‖f‖ ≥ F: the link *yields* — it moves away from the contact along n̂, with the highest weight,
+  and never towards it — until ‖f‖ falls below r·F (``reset_ratio`` r, hysteresis).
+
+The yield is graded by the excess over F (:func:`yield_scale`): σ = (‖f‖ − F) / (e·F) clipped
+into [0, 1] (``full_excess`` e: σ = 1 at (1 + e)·F, by default 2F, the transient limit of most
+regions). The yield speed is ``yield_speed`` + σ (``yield_speed_max`` − ``yield_speed``)
+(:func:`yield_speed_of`), and the whole body's bounds open with σ while any link yields
+(:func:`~wholebody_controller.qp.yield_limits_into`): each arm joint may leave its position range
+(the waltz's q_dance band) by up to σ · ``yield_joint_range``, each axis may reach its actuator
+limit (``velocity_limits``, not Table II's single ``velocity_limit``), within the rated
+``acceleration_limits``. The arm goes first, and alone beyond the normal bounds: the base keeps
+its bounds (a fast base turn sweeps the other arm through the partner). The opening is held at
+the yield's largest σ until the force falls to the fade start.
 
 The transient limit (2F for most regions) is not a threshold of this response — the response is
 already at full yield at F — but the guard records whether it was ever exceeded, for diagnostics.
@@ -62,22 +73,38 @@ class SafetyConfig:
         yield_speed: speed of the contact centre away from the contact while yielding [m/s].
         regain_distance: link-frame travel allowed without contact under a desired force [m].
         regain_time: time allowed without contact under a desired force [s].
+        yield_speed_max: yield speed at the full excess [m/s].
+        full_excess: e, the excess over F (fraction of F) where σ reaches 1 [-].
+        yield_joint_range: widening of an arm joint's position range at σ = 1 [rad].
     """
 
     fade_start: float = setting(
         "force_fade_start", 0.5, "fraction of a link's force_limit where desired force and "
-        "approach start to fade", "-", 0.0, 0.99)
+        "approach start to fade", "-", 0.0, 0.99, loosens="up")
     reset_ratio: float = setting(
         "force_reset_ratio", 0.5, "fraction of force_limit below which a yielding link resumes",
-        "-", 0.01, 1.0)
+        "-", 0.01, 1.0, loosens="up")
     yield_speed: float = setting(
         "yield_speed", paper.VELOCITY_LIMIT, "speed of a contact centre away from a contact at "
-        "its force_limit", "m/s", 0.0, 1.0)
+        "its force_limit", "m/s", 0.0, 1.0, loosens="down")
     regain_distance: float = setting(
         "regain_distance", 0.15, "link travel allowed without contact under a desired force",
-        "m", 0.0, 1.0)
+        "m", 0.0, 1.0, loosens="up")
     regain_time: float = setting(
-        "regain_time", 2.0, "time allowed without contact under a desired force", "s", 0.0, 60.0)
+        "regain_time", 2.0, "time allowed without contact under a desired force", "s", 0.0, 60.0,
+        loosens="up")
+    yield_speed_max: float = setting(
+        "yield_speed_max", 1.0, "yield speed of a contact centre at the full excess "
+        "(1 + yield_full_excess) × force_limit; yield_speed at the limit, linear between", "m/s",
+        0.0, 5.0, loosens="down")
+    full_excess: float = setting(
+        "yield_full_excess", 1.0, "excess over force_limit, as a fraction of it, at which the "
+        "yield speed and the whole body's opened bounds are full", "-", 0.01, 100.0,
+        loosens="up")
+    yield_joint_range: float = setting(
+        "yield_joint_range", 0.3, "how far an arm joint may leave its position range (q_dance "
+        "band) while a link yields at the full excess (scaled by the excess below it)", "rad",
+        0.0, 6.3, loosens="down")
 
     def __post_init__(self) -> None:
         check_settings(self)
@@ -108,3 +135,21 @@ def limit_approach(velocity: Vec3, normal: Vec3, scale: float) -> Vec3:
         return velocity
     k = (1.0 - scale) * along
     return vx - k * nx, vy - k * ny, vz - k * nz
+
+
+@jitable
+def yield_scale(force: float, limit: float, full_excess: float) -> float:
+    """σ ∈ [0, 1]: the excess of ``force`` [N] over ``limit`` F [N] as a fraction of
+    ``full_excess`` · F (0 at or below F, 1 from (1 + e)·F on)."""
+    sigma = (force - limit) / (full_excess * limit)
+    if sigma <= 0.0:
+        return 0.0
+    return sigma if sigma < 1.0 else 1.0
+
+
+@jitable
+def yield_speed_of(sigma: float, yield_speed: float, yield_speed_max: float) -> float:
+    """The yield speed [m/s] at excess scale σ: ``yield_speed`` at 0, ``yield_speed_max`` at 1
+    (never below ``yield_speed``)."""
+    top = yield_speed_max if yield_speed_max > yield_speed else yield_speed
+    return yield_speed + sigma * (top - yield_speed)

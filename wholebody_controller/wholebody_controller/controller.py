@@ -199,8 +199,12 @@ class WholeBodyController:
             self._warm_up()
 
     def _limits(self, config: ControllerConfig) -> Array:
-        """(5, n): q_l, q_u (the joints' own, within ``joint_ranges``), q̇_l, q̇_u of (22), and
-        the largest change of each command in one period (rated acceleration × dt)."""
+        """(8, n): q_l, q_u (the joints' own, within ``joint_ranges``), q̇_l, q̇_u of (22), the
+        largest change of each command in one period (rated acceleration × dt), then the
+        yield's (:func:`~wholebody_controller.qp.yield_limits_into`): the arm joints' ranges
+        opened by ``yield_joint_range`` within their own limits, their actuator velocity limit
+        (``velocity_limits`` and the robot's, without Table II's ``velocity_limit``); the base's
+        bounds stay the normal ones. The acceleration bound stays the rated one throughout."""
         lower = self._robot_position_limits[:, 0].copy()
         upper = self._robot_position_limits[:, 1].copy()
         index = {name: i for i, name in enumerate(self.joint_names)}
@@ -217,12 +221,24 @@ class WholeBodyController:
         vmax = config.axis_velocity_limits(self._robot_velocity_limits)
         self.position_lower, self.position_upper = lower, upper
         self.velocity_lower, self.velocity_upper = -vmax, vmax
-        accelerations = np.asarray(config.acceleration_limits, dtype=np.float64)
-        if accelerations.shape != (self.n,):
-            raise ValueError(f"parameter 'acceleration_limits' has {accelerations.size} "
-                             f"entries, the robot {self.n} axes (base x, y, yaw, arms)")
-        change = accelerations * config.dt
-        return np.ascontiguousarray([lower, upper, -vmax, vmax, change], dtype=np.float64)
+        rated = np.asarray(config.acceleration_limits, dtype=np.float64)
+        if rated.shape != (self.n,):
+            raise ValueError(f"parameter 'acceleration_limits' has {rated.size} entries, the "
+                             f"robot {self.n} axes (base x, y, yaw, arms)")
+        opened = config.safety.yield_joint_range
+        robot_lower, robot_upper = self._robot_position_limits.T
+        yield_lower, yield_upper = lower.copy(), upper.copy()
+        yield_lower[3:] = np.maximum(robot_lower[3:], lower[3:] - opened)
+        yield_upper[3:] = np.minimum(robot_upper[3:], upper[3:] + opened)
+        actuator = np.minimum(self._robot_velocity_limits,
+                              np.asarray(config.velocity_limits, dtype=np.float64))
+        actuator = np.maximum(actuator, vmax)
+        # The base keeps its normal bounds: a fast base turn sweeps the other arm through the
+        # partner (docs: Contact safety, "The yield is graded").
+        actuator[:3] = vmax[:3]
+        return np.ascontiguousarray(
+            [lower, upper, -vmax, vmax, rated * config.dt, yield_lower, yield_upper, actuator],
+            dtype=np.float64)
 
     def _warm_up(self) -> None:
         """Run the kernel once on scratch copies: compiles (or loads) it now, not in the first

@@ -45,6 +45,7 @@ from wholebody_controller.contact_task import (
     TaskOutput,
 )
 from wholebody_controller.input_checks import InputError
+from wholebody_controller.safe_stop import SafeStop
 from wholebody_controller.tasks import ContactTask
 
 Array = NDArray[np.float64]
@@ -229,6 +230,19 @@ def speed_scaling_status(node_name: str, scaling: dict[str, float], minimum: flo
     return DiagnosticStatus(
         level=level, name=f"{node_name}: speed scaling", message=message,
         hardware_id=node_name, values=[KeyValue(key=k, value=v) for k, v in values.items()])
+
+
+def safe_stop_status(node_name: str, stop: SafeStop) -> DiagnosticStatus:
+    """The safe stop (:mod:`~wholebody_controller.safe_stop`) as a diagnostic status: ERROR
+    with the reasons while tripped (exact zero command until ``~/reset``), OK otherwise."""
+    level, message = DiagnosticStatus.OK, "no plausibility verdict"
+    if stop.active:
+        level = DiagnosticStatus.ERROR
+        message = f"safe stop, exact zero command until ~/reset: {stop.summary()}"
+    return DiagnosticStatus(
+        level=level, name=f"{node_name}: safe stop", message=message, hardware_id=node_name,
+        values=[KeyValue(key="trips", value=str(stop.trips)),
+                KeyValue(key="reasons", value=", ".join(stop.reasons) or "-")])
 
 
 def safety_status(task: ContactTask, safety: Safety, node_name: str) -> DiagnosticStatus:

@@ -45,7 +45,7 @@ from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 from numpy.typing import NDArray
 from rclpy.node import Node
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from rclpy.qos import QoSProfile, qos_profile_sensor_data
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Float64, Float64MultiArray
@@ -69,19 +69,21 @@ from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
 from wholebody_controller.contact_safety import Safety
 from wholebody_controller.controller import KinematicsModel, WholeBodyController
-from wholebody_controller.freshness import FreshnessConfig, InputFreshness
+from wholebody_controller.freshness import InputFreshness, freshness_config
 from wholebody_controller.input_checks import (
     InputError,
     check_contact_force,
     check_joint_positions,
     check_odometry_jump,
 )
+from wholebody_controller.kinematics import RobotKinematics
 from wholebody_controller.messages import (
     SPEED_SCALING_TOPIC,
     loop_status,
     odom_to_base,
     pose_to_base,
     positions_by_name,
+    safe_stop_status,
     safety_status,
     speed_scaling_fraction,
     speed_scaling_status,
@@ -92,42 +94,14 @@ from wholebody_controller.parameters import (
     LINKS_PARAM,
     config_from_values,
     control_loop_mode,
+    iso_overrides,
     link_param_specs,
 )
+from wholebody_controller.qos import CONTACT_QOS, SCALING_QOS
 from wholebody_controller.qp import QPError
-from wholebody_controller.speed_scaling import ARM_COMMAND_SLICES, scale_to_slowest
+from wholebody_controller.safe_stop import SafeStop
+from wholebody_controller.speed_scaling import ARM_COMMAND_SLICES, ScalingGate, scale_to_slowest
 
-
-def default_kinematics() -> KinematicsModel:
-    """The robot's kinematics from phri_description (MuJoCo)."""
-    from wholebody_controller.kinematics import RobotKinematics
-
-    kin: KinematicsModel = RobotKinematics()
-    return kin
-
-
-def freshness_config(values: dict[str, ParamValue]) -> FreshnessConfig:
-    """The input timeouts [s] from the node's parameter values."""
-    return FreshnessConfig(
-        contact_timeout=float(values["contact_timeout"]),
-        joint_state_timeout=float(values["joint_state_timeout"]),
-        odom_timeout=float(values["odom_timeout"]),
-    )
-
-
-CONTACT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=25,
-                         reliability=ReliabilityPolicy.BEST_EFFORT)
-"""Contact states: best effort (a late state is never worth a retransmission), but 25 deep —
-50 ms of a link's 500 Hz states — because with the sensor-data depth of 5 a controller process
-held off the CPU for over 10 ms lost states in the DDS queue (bench_chain: 0.04 % of frames on a
-quiet machine, ≈ 5 % on a loaded one). Every queued state is read in order; the stamps' age
-check (``contact_timeout``) still refuses what is stale."""
-
-
-SCALING_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5,
-                         reliability=ReliabilityPolicy.BEST_EFFORT)
-"""UR speed scaling: only the newest value matters (ur_robot_driver offers it reliable, which a
-best-effort reader matches)."""
 
 class WholeBodyControllerNode(Node):
     """The whole-body controller node. ``direct_state_inputs=True``: its owner calls
@@ -147,12 +121,11 @@ class WholeBodyControllerNode(Node):
         super().__init__(node_name, **kwargs)
         # Held by every control cycle and by whatever runs in the executor's thread beside it.
         self.cycle_lock = threading.RLock()
-        self.fatal_error: BaseException | None = None
-        """What stopped the control thread (``run_nodes`` then exits with code 1)."""
+        self.fatal_error: BaseException | None = None  # what stopped the control thread
         # Before anything can fail: rclpy destroys even a node whose constructor raised.
         self.loop: PeriodicThread | None = None
         self._polled: list[tuple[PolledSubscription, Callable[[bytes], None]]] = []
-        self.kinematics = kinematics if kinematics is not None else default_kinematics()
+        self.kinematics = kinematics if kinematics is not None else RobotKinematics()
         joints = list(self.kinematics.joint_names)
         self.arm_joints: tuple[str, ...] = tuple(joints[3:])
         self.left_joints, self.right_joints = self.arm_joints[0:6], self.arm_joints[6:12]
@@ -164,6 +137,7 @@ class WholeBodyControllerNode(Node):
         specs = [*GLOBAL_PARAMS, *(s for link in self.links for s in link_param_specs(link))]
         self.controller: WholeBodyController | None = None
         self.params = declare_parameters(self, specs, self._on_params)
+        self._log_iso_overrides()
         # When each input arrived (node clock) and whether a cycle may use them.
         self.freshness = InputFreshness(self.links, self.arm_joints,
                                         freshness_config(self.params))
@@ -183,10 +157,10 @@ class WholeBodyControllerNode(Node):
         self.joint_limits = {name: (float(limits[i, 0]), float(limits[i, 1]))
                              for i, name in enumerate(joints) if name in self.arm_joints}
         self.safety: dict[str, Safety] = dict.fromkeys(self.links, Safety.OK)
+        self.safe_stop = SafeStop()  # latched plausibility verdicts: exact zero until ~/reset
         self.speed_scaling: dict[str, float] = {}
         """Executed fraction of commanded speed per arm (0–1), from its UR; none: unscaled."""
-        self._scaling_refused = False
-        self._scaling_warned_ns: int | None = None
+        self.scaling_gate = ScalingGate()
         # Counters (diagnostics and tests).
         self.rejected_inputs = 0
         self.qp_failures = 0
@@ -194,6 +168,12 @@ class WholeBodyControllerNode(Node):
         self.good_cycles = 0
         self._create_interfaces(direct_state_inputs)
         self._start_loop()
+
+    def _log_iso_overrides(self) -> None:
+        """Every force limit ``iso15066_override`` lets above the ISO/TS 15066 table, at ERROR
+        (docs: Protected settings)."""
+        for text in iso_overrides(self.params, self.links):
+            self.get_logger().error(f"iso15066_override: {text}")
 
     def _node_clock_ns(self) -> Callable[[], int]:
         """The node clock [ns]: the control thread runs on the wall clock, which is what the
@@ -429,25 +409,16 @@ class WholeBodyControllerNode(Node):
             self.speed_scaling[arm] = 0.0
 
     def _speed_scaling_refuses(self, now_ns: int) -> bool:
-        """True while the slowest arm's speed scaling is below ``min_speed_scaling``: the cycle
-        commands zero, the tasks are reset once, a warning at most once a second (the node's own
-        throttle: rclpy's costs milliseconds per call even when it throttles)."""
-        minimum = float(self.params["min_speed_scaling"])
-        slowest = min(self.speed_scaling.values(), default=1.0)
-        if slowest >= minimum:
-            self._scaling_refused = False
-            return False
-        if not self._scaling_refused:
-            self._scaling_refused = True
-            if self.controller is not None:
-                self.controller.reset()
-        if self._scaling_warned_ns is None or now_ns - self._scaling_warned_ns >= 1_000_000_000:
-            self._scaling_warned_ns = now_ns
-            arms = ", ".join(f"{a} {100 * v:.0f} %" for a, v in sorted(self.speed_scaling.items()))
-            self.get_logger().warning(
-                f"UR speed scaling ({arms}) below min_speed_scaling {100 * minimum:.0f} %: zero "
-                "command (raise the teach pendant's speed slider, or lower min_speed_scaling)")
-        return True
+        """True while the slowest arm's speed scaling is below ``min_speed_scaling``
+        (:class:`ScalingGate`): zero command, the tasks reset once, a warning at most once a
+        second."""
+        refuse, began, warning = self.scaling_gate.check(
+            self.speed_scaling, float(self.params["min_speed_scaling"]), now_ns)
+        if began and self.controller is not None:
+            self.controller.reset()
+        if warning:
+            self.get_logger().warning(warning)
+        return refuse
 
     # -- services -------------------------------------------------------------------------------
     def _record_q_dance(self, _req: Trigger.Request, res: Trigger.Response) -> Trigger.Response:
@@ -480,8 +451,22 @@ class WholeBodyControllerNode(Node):
         with self.cycle_lock:
             if self.controller is not None:
                 self.controller.reset()
+            cleared = self.safe_stop.clear()
         res.success, res.message = True, "interaction tasks reset"
+        if cleared:
+            res.message += f"; safe stop cleared ({', '.join(cleared)})"
+            self.get_logger().warning(f"~/reset: {res.message}")
         return res
+
+    def trip_safe_stop(self, kind: str, message: str) -> None:
+        """A plausibility verdict (:mod:`~wholebody_controller.safe_stop`): exact zero from the
+        next cycle on until ``~/reset``; logged ERROR and reported at once."""
+        with self.cycle_lock:
+            new = self.safe_stop.trip(kind, message)
+        if new:
+            self.get_logger().error(f"safe stop ({kind}): {message}; exact zero command until "
+                                    "~/reset")
+            self.publish_diagnostics()
 
     # -- control cycle --------------------------------------------------------------------------
     def publish_zero(self) -> None:
@@ -528,7 +513,7 @@ class WholeBodyControllerNode(Node):
             self.zero_cycles += 1
             self.publish_zero()
             return
-        if self._speed_scaling_refuses(now_ns):
+        if self._speed_scaling_refuses(now_ns) or self._safe_stopped():
             self.zero_cycles += 1
             self.publish_zero()
             return
@@ -555,6 +540,17 @@ class WholeBodyControllerNode(Node):
                 pub.publish(task_state_to_msg(task, error, now_ns, frame))
         self.good_cycles += 1
 
+    def _safe_stopped(self) -> bool:
+        """While the safe stop is tripped: the tasks reset once, then the cycle sends zero."""
+        if not self.safe_stop.active:
+            self._stop_reset = False
+            return False
+        if not getattr(self, "_stop_reset", False):
+            self._stop_reset = True
+            if self.controller is not None:
+                self.controller.reset()
+        return True
+
     def _track_safety(self, tasks: Sequence[Any]) -> None:
         """Publish diagnostics at once when a link's contact-safety state changes."""
         changed = False
@@ -577,6 +573,7 @@ class WholeBodyControllerNode(Node):
         statuses.append(loop_status(name, self.control_loop, self.loop, self.fatal_error))
         statuses.append(speed_scaling_status(name, scaling,
                                              float(self.params["min_speed_scaling"])))
+        statuses.append(safe_stop_status(name, self.safe_stop))
         msg = DiagnosticArray(status=statuses)
         msg.header.stamp = ns_to_stamp(self.clock_ns())
         self.diag_pub.publish(msg)

@@ -14,6 +14,7 @@ from typing import Any
 
 from phri_common import paper
 from phri_common.params import ParamSpec, settings_of, values_for
+from phri_common.protected import UNLOCK_PARAM
 from phri_description.description import SKIN_LINKS
 from wholebody_controller.config import (
     AdmittanceGains,
@@ -72,14 +73,15 @@ NODE_PARAMS: list[ParamSpec] = [
     ParamSpec("q_dance_range", paper.Q_DANCE_HALF_WIDTH,
               "half width of the q_dance joint ranges", "rad", 0.0, 6.3),
     ParamSpec("contact_timeout", 0.1, "contact state older than this → zero command", "s",
-              1e-3, 10.0),
+              1e-3, 10.0, loosens="up"),
     ParamSpec("joint_state_timeout", 0.1, "joint state older than this → zero command", "s",
-              1e-3, 10.0),
-    ParamSpec("odom_timeout", 0.1, "odometry older than this → zero command", "s", 1e-3, 10.0),
+              1e-3, 10.0, loosens="up"),
+    ParamSpec("odom_timeout", 0.1, "odometry older than this → zero command", "s", 1e-3, 10.0,
+              loosens="up"),
     ParamSpec("world_frame", "odom", "frame_id of the task-state messages", read_only=True),
     ParamSpec("max_contact_force", 5000.0,
               "contact states with a larger |force| are refused as impossible", "N",
-              1.0, 1e6),
+              1.0, 1e6, loosens="up"),
     ParamSpec("joint_limit_margin", 0.05,
               "joint states beyond the joint limits by more than this are refused", "rad",
               0.0, 1.0),
@@ -92,6 +94,11 @@ NODE_PARAMS: list[ParamSpec] = [
               "at: below it zero command and a warning; at or above it every joint is "
               "commanded so that all move at the smallest arm's fraction (none received: 1)",
               "-", 0.0, 1.0),
+    UNLOCK_PARAM,
+    ParamSpec("iso15066_override", False, "allow <link>.force_limit / transient_force_limit "
+              "above the ISO/TS 15066 Table A.2 limits of the link's body region "
+              "(phri_common.iso15066); the limits above the table are logged at ERROR at "
+              "start-up", read_only=True),
 ]
 """The node's own parameters (inputs, timeouts, the control loop, the dance band)."""
 
@@ -124,13 +131,15 @@ def link_param_specs(link: str) -> list[ParamSpec]:
                   "fixed priority ψ (manual task); 0 = automatic (15)", "-", 0.0, 1.0),
         ParamSpec(f"{link}.desired_force", [0.0, 0.0, 0.0],
                   "force the link exerts, base frame (waltz: 0 -10 0 on the left forearm)", "N",
-                  -1000.0, 1000.0, length=3),
+                  -1000.0, 1000.0, length=3, loosens="magnitude"),
         ParamSpec(f"{link}.force_limit", limit,
                   "quasi-static contact force limit (ISO/TS 15066 region of the link): fade, "
-                  "then yield", "N", 1.0, 1e4),
+                  "then yield; above the region's table value only with iso15066_override", "N",
+                  1.0, 1e4, loosens="up"),
         ParamSpec(f"{link}.transient_force_limit", transient,
-                  "transient contact force limit (reported when exceeded), ≥ force_limit", "N",
-                  1.0, 2e4),
+                  "transient contact force limit (reported when exceeded), ≥ force_limit; above "
+                  "the region's table value only with iso15066_override", "N", 1.0, 2e4,
+                  loosens="up"),
     ]
 
 
@@ -153,6 +162,12 @@ def _link_config(values: Mapping[str, Any], link: str) -> LinkTaskConfig:
     if transient < limit:
         raise ValueError(f"parameter '{link}.transient_force_limit' = {transient} N must be ≥ "
                          f"'{link}.force_limit' = {limit} N")
+    if not values.get("iso15066_override", False):
+        above = above_iso_table(link, limit, transient)
+        if above:
+            raise ValueError(f"{above[0]} refused: above the ISO/TS 15066 table for the link's "
+                             "body region; only with iso15066_override: true (read-only, set "
+                             "at start-up, logged at ERROR)")
     return LinkTaskConfig(
         link=link,
         admittance=AdmittanceGains(
@@ -165,6 +180,30 @@ def _link_config(values: Mapping[str, Any], link: str) -> LinkTaskConfig:
         force_limit=limit,
         transient_force_limit=transient,
     )
+
+
+def above_iso_table(link: str, limit: float, transient: float) -> list[str]:
+    """The force limits of ``link`` [N] above ISO/TS 15066's table for its body region
+    (:func:`~wholebody_controller.config.default_force_limits`), as ``'parameter' = value N
+    (table N)`` texts."""
+    table_limit, table_transient = default_force_limits(link)
+    out = []
+    for name, value, table in (("force_limit", limit, table_limit),
+                               ("transient_force_limit", transient, table_transient)):
+        if value > table:
+            out.append(f"parameter '{link}.{name}' = {value:g} N (table {table:g} N)")
+    return out
+
+
+def iso_overrides(values: Mapping[str, Any], links: Sequence[str]) -> list[str]:
+    """What ``iso15066_override`` lets through, one text per force limit above the table (empty
+    without the override): the node logs each at ERROR at start-up."""
+    if not values.get("iso15066_override", False):
+        return []
+    return [f"{text}: above ISO/TS 15066 Table A.2 for the link's body region, allowed by the "
+            "override" for link in links
+            for text in above_iso_table(link, float(values[f"{link}.force_limit"]),
+                                        float(values[f"{link}.transient_force_limit"]))]
 
 
 def config_from_values(

@@ -78,6 +78,33 @@ def velocity_bounds_into(q: Array, previous: Array, limits: Array, horizon: floa
         upper[i] = min(max(high, slowest), fastest)
 
 
+LIMIT_ROWS = 8
+"""Rows of the controller's bounds array: q_l, q_u, q̇_l, q̇_u, Δ (rated acceleration × dt), then
+the yield's: q_l and q_u opened by ``yield_joint_range`` (within the joints' own limits), the
+actuator velocity limit (symmetric)."""
+
+
+@jitable
+def yield_limits_into(limits: Array, sigma: float, out: Array) -> None:
+    """The bounds of a step in which a link yields with excess scale σ ∈ [0, 1]
+    (:mod:`~wholebody_controller.contact_safety`), written into ``out`` (5×n): each of q_l, q_u,
+    q̇_l, q̇_u moved the fraction σ of the way from its normal value (rows 0–3 of ``limits``)
+    to its yield value (rows 5–7: opened range, actuator velocity); Δ (row 4, the rated
+    acceleration × dt) unchanged. An unbounded position limit stays unbounded.
+
+    Args:
+        limits: (:data:`LIMIT_ROWS`, n) bounds.
+        sigma: σ ∈ [0, 1] (0: ``out`` = rows 0–4).
+    """
+    for i in range(limits.shape[1]):
+        for row, other in ((0, 5), (1, 6)):
+            a, b = limits[row, i], limits[other, i]
+            out[row, i] = a if a == b else a + sigma * (b - a)
+        v = limits[3, i] + sigma * (limits[7, i] - limits[3, i])
+        out[2, i], out[3, i] = -v, v
+        out[4, i] = limits[4, i]
+
+
 @jitable
 def assemble_qp(jacobian: Array, target: Array, doubled_weights: Array, epsilon: float,
                 hessian: Array, gradient: Array) -> bool:

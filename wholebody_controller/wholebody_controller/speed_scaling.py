@@ -36,3 +36,33 @@ def scale_to_slowest(command: NDArray[np.float64], scaling: Mapping[str, float]
         if own is not None and own > 0.0:
             out[part] = command[part] * (slowest / own)
     return out
+
+
+class ScalingGate:
+    """The ``min_speed_scaling`` rule over time: whether a cycle must command zero because the
+    slowest arm's speed scaling is below the minimum, when that began (the tasks are reset
+    once) and the warning due (at most once a second: rclpy's own throttle costs milliseconds
+    per call even when it throttles)."""
+
+    def __init__(self) -> None:
+        self.refused = False
+        self._warned_ns: int | None = None
+
+    def check(self, scaling: Mapping[str, float], minimum: float, now_ns: int
+              ) -> tuple[bool, bool, str]:
+        """``(refuse, began, warning)`` for this cycle at ``now_ns`` [ns]: whether to command
+        zero, whether the refusal began now, the warning to log ('' = none due)."""
+        slowest = min(scaling.values(), default=1.0)
+        if slowest >= minimum:
+            self.refused = False
+            return False, False, ""
+        began = not self.refused
+        self.refused = True
+        warning = ""
+        if self._warned_ns is None or now_ns - self._warned_ns >= 1_000_000_000:
+            self._warned_ns = now_ns
+            arms = ", ".join(f"{a} {100 * v:.0f} %" for a, v in sorted(scaling.items()))
+            warning = (f"UR speed scaling ({arms}) below min_speed_scaling {100 * minimum:.0f} "
+                       "%: zero command (raise the teach pendant's speed slider, or lower "
+                       "min_speed_scaling)")
+        return True, began, warning

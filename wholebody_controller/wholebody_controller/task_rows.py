@@ -14,7 +14,8 @@ compiled or as plain Python, the same function either way:
 * ``[Φ Γ]`` of the link's admittance (12×18, :func:`~wholebody_controller.admittance.transition`).
 
 Per step the contact state arrives as a **contact** row (``C_*``) and the step writes an
-**output** row (``O_*``): the 36 values of :class:`TaskOutput` then phase, ψ, ψ_raw, safety.
+**output** row (``O_*``): the 36 values of :class:`TaskOutput` then phase, ψ, ψ_raw, safety and
+the yield's excess scale σ.
 Booleans are 0.0 / 1.0; an unset priority lock is NaN.
 """
 
@@ -48,7 +49,11 @@ S_TRAVEL, S_ELAPSED, S_EXHAUSTED = 37, 38, 39
 """Regain budget: travel [m] and time [s] without contact; the budget is spent."""
 S_BOX_SET, S_BOX, S_AGE, S_ENGAGED = 40, 41, 47, 48
 """Ω_d: locked; (min xyz, max xyz) [m]; time since it was locked [s]; the six face triggers."""
-N_STATE = 54
+S_OPENED = 54
+"""The graded yield: how far the whole body's bounds are open, σ held from the yield while the
+contact force stays above the fade start (so a joint that left the q_dance band is not driven
+back into a partner who still presses)."""
+N_STATE = 55
 
 # -- parameter row ----------------------------------------------------------------------------
 P_K_ETA, P_B, P_K_P, P_PSI_THR, P_DT = 0, 1, 2, 3, 4
@@ -65,15 +70,20 @@ P_LIMIT, P_TRANSIENT, P_FADE, P_RESET, P_YIELD_SPEED = 34, 35, 36, 37, 38
 """Force limit F and transient limit [N]; fade start a and reset ratio r; yield speed [m/s]."""
 P_REGAIN_DISTANCE, P_REGAIN_TIME = 39, 40
 """Regain budget: travel [m] and time [s] a desired force may act without contact."""
-N_PARAM = 41
+P_YIELD_MAX, P_FULL_EXCESS = 41, 42
+"""Graded yield: yield speed at the full excess [m/s]; the excess (fraction of F) where σ = 1."""
+N_PARAM = 43
 
 # -- contact row: in_contact, centre, force, torque, region min, region max (link frame) ------
 C_IN, C_CENTER, C_FORCE, C_TORQUE, C_MIN, C_MAX = 0, 1, 4, 7, 10, 13
 N_CONTACT = 16
 
-# -- output row: TaskOutput.values (36), then phase, ψ, ψ_raw, safety -------------------------
-O_PHASE, O_PSI, O_PSI_RAW, O_SAFETY = 36, 37, 38, 39
-N_OUT = 40
+# -- output row: TaskOutput.values (36), then phase, ψ, ψ_raw, safety, σ -----------------------
+O_PHASE, O_PSI, O_PSI_RAW, O_SAFETY, O_YIELD = 36, 37, 38, 39, 40
+"""``O_YIELD``: how far the link's yield opens the bounds (``S_OPENED``: the yield's largest
+excess scale σ, :func:`~wholebody_controller.contact_safety.yield_scale`, held until the force
+falls to the fade start); the QP opens the whole body's bounds by the largest."""
+N_OUT = 41
 
 
 def link_params(link: LinkTaskConfig, config: ControllerConfig) -> Array:
@@ -93,10 +103,11 @@ def link_params(link: LinkTaskConfig, config: ControllerConfig) -> Array:
     carry = config.lead_moment and not any(link.admittance.stiffness[3:6])
     safety = config.safety
     assert link.force_limit is not None and link.transient_force_limit is not None
-    p[P_LEAD : P_REGAIN_TIME + 1] = (config.lead_moment, carry, link.force_limit,
+    p[P_LEAD : P_FULL_EXCESS + 1] = (config.lead_moment, carry, link.force_limit,
                                      link.transient_force_limit, safety.fade_start,
                                      safety.reset_ratio, safety.yield_speed,
-                                     safety.regain_distance, safety.regain_time)
+                                     safety.regain_distance, safety.regain_time,
+                                     safety.yield_speed_max, safety.full_excess)
     return p
 
 

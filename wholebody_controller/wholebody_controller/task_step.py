@@ -11,7 +11,9 @@ The step, in order (:func:`step_task`):
 5. Algorithm 1: ψ (15) or the lock, activation (lock x_r), deactivation (line 10: reset);
 6. while active: the leash (F2), Ω_d locked or grown (line 14 and the onset window), and the
    commanded velocity of the contact centre (14), (16)–(20);
-7. the graded response on that velocity (fade, yield) or, once the regain budget is spent, stop.
+7. the graded response on that velocity (fade, yield at a speed graded by the excess over the
+   limit) or, once the regain budget is spent, stop; the output row carries the yield's excess
+   scale σ, by which :func:`~wholebody_controller.whole_step.qp_of_step` opens the bounds.
 
 Every function here is plain Python on numpy rows and plain floats, and :func:`jitable`: the
 compiled kernel (:mod:`kernels`) runs exactly this code, ``kernel: python`` runs it
@@ -29,7 +31,12 @@ from numpy.typing import NDArray
 from phri_common.jit import jitable
 from phri_common.planar import base_to_world
 from wholebody_controller.admittance import admittance_step
-from wholebody_controller.contact_safety import approach_scale, limit_approach
+from wholebody_controller.contact_safety import (
+    approach_scale,
+    limit_approach,
+    yield_scale,
+    yield_speed_of,
+)
 from wholebody_controller.contact_task import (
     contact_rate,
     contact_wrench,
@@ -52,11 +59,13 @@ from wholebody_controller.task_rows import (
     O_PSI,
     O_PSI_RAW,
     O_SAFETY,
+    O_YIELD,
     P_B,
     P_CARRY,
     P_DESIRED,
     P_DT,
     P_FADE,
+    P_FULL_EXCESS,
     P_HYSTERESIS,
     P_K_ETA,
     P_K_P,
@@ -74,6 +83,7 @@ from wholebody_controller.task_rows import (
     P_USER_REF,
     P_USER_REF_SET,
     P_WINDOW,
+    P_YIELD_MAX,
     P_YIELD_SPEED,
     S_AGE,
     S_BOX,
@@ -84,6 +94,7 @@ from wholebody_controller.task_rows import (
     S_HAD,
     S_LAST,
     S_LAST_SET,
+    S_OPENED,
     S_PEAK,
     S_POINT,
     S_PSI_PREV,
@@ -176,9 +187,11 @@ def has_desired_force(p: Array) -> bool:
 
 @jitable
 def contact_safety(s: Array, p: Array, c: Array, pos: tuple[float, float, float]) -> tuple:
-    """This cycle's contact safety: ``(approach scale, desired-force scale, has n̂, n̂)``, n̂ the
-    unit contact force in the link frame; updates the guard and the regain budget (the link
-    frame at ``pos`` [m]). A yield that ends starts the task afresh."""
+    """This cycle's contact safety: ``(approach scale, desired-force scale, has n̂, n̂, σ)``, n̂
+    the unit contact force in the link frame, σ the yield's excess scale (0 unless yielding);
+    updates the guard, the regain budget (the link frame at ``pos`` [m]) and the opened bounds
+    (the largest σ of the yield, held until the force falls to the fade start). A yield that
+    ends starts the task afresh."""
     in_contact = c[C_IN] != 0.0
     normal = (0.0, 0.0, 0.0)
     has_normal = False
@@ -202,7 +215,13 @@ def contact_safety(s: Array, p: Array, c: Array, pos: tuple[float, float, float]
         s[S_LAST_SET] = 1.0
         s[S_LAST], s[S_LAST + 1], s[S_LAST + 2] = pos
         gate = regain_update(s, p, in_contact, travel)
-    return scale, scale if gate else 0.0, has_normal, normal
+    sigma = 0.0
+    if s[S_YIELDING] != 0.0:
+        sigma = yield_scale(magnitude, p[P_LIMIT], p[P_FULL_EXCESS])
+        s[S_OPENED] = max(s[S_OPENED], sigma)
+    elif magnitude <= p[P_FADE] * p[P_LIMIT]:
+        s[S_OPENED] = 0.0  # the push is over: the bounds close, the band returns
+    return scale, scale if gate else 0.0, has_normal, normal, sigma
 
 
 @jitable
@@ -339,15 +358,15 @@ def velocities(s: Array, p: Array, rot: tuple, pos: tuple, has_rate: bool,
 
 @jitable
 def graded_response(s: Array, p: Array, vel: tuple, rot: tuple, has_normal: bool,
-                    normal: tuple, scale: float) -> tuple:
+                    normal: tuple, scale: float, sigma: float) -> tuple:
     """The guard on the commanded velocity: while yielding, the contact centre moves along n̂
-    (away from the person) at the yield speed; while fading, only s of the motion towards the
-    contact is kept (:func:`limit_approach`)."""
+    (away from the person) at the yield speed of the excess scale σ (:func:`yield_speed_of`);
+    while fading, only s of the motion towards the contact is kept (:func:`limit_approach`)."""
     if not has_normal:
         return vel
     n = rotate(rot, normal)
     if s[S_YIELDING] != 0.0:
-        y = p[P_YIELD_SPEED]
+        y = yield_speed_of(sigma, p[P_YIELD_SPEED], p[P_YIELD_MAX])
         return (y * n[0], y * n[1], y * n[2], 0.0, 0.0, 0.0,
                 y * n[0], y * n[1], y * n[2], 0.0, 0.0, 0.0)
     t = limit_approach((vel[0], vel[1], vel[2]), n, scale)
@@ -368,7 +387,7 @@ def step_task(s: Array, p: Array, phi_gamma: Array, c: Array, rot: tuple, pos: t
         out: the output row (written).
     """
     in_contact = c[C_IN] != 0.0
-    scale, desired_scale, has_normal, normal = contact_safety(s, p, c, pos)
+    scale, desired_scale, has_normal, normal, sigma = contact_safety(s, p, c, pos)
     has_rate, rate = track_contact(s, p, c)
     w, mu = link_wrench(s, p, c, rot, yaw, desired_scale)
     admittance_step(s, phi_gamma, w)
@@ -392,13 +411,14 @@ def step_task(s: Array, p: Array, phi_gamma: Array, c: Array, rot: tuple, pos: t
     else:
         s[S_X : S_X + 6] = 0.0  # lines 7/10: x_d = x_r = x_γ, so x̃ = 0 by (14)
     if scale < 1.0:
-        vel = graded_response(s, p, vel, rot, has_normal, normal, scale)
+        vel = graded_response(s, p, vel, rot, has_normal, normal, scale, sigma)
     elif s[S_EXHAUSTED] != 0.0:
         # Contact lost past the regain budget: the link stops and waits for a touch (no pull
         # back to the old reference either); a new touch activates the task afresh.
         forget(s)
         vel = (0.0,) * 12
     write_output(s, p, vel, w, rotate(rot, mu), phase, psi_raw, scale, out)
+    out[O_YIELD] = s[S_OPENED]
 
 
 @jitable

@@ -54,6 +54,9 @@ class ContactTask:
                           if phi_gamma is None else phi_gamma)
         self.state = np.zeros(rows.N_STATE) if state is None else state
         self._kernel = step_kernel(self.controller_config.kernel)
+        self.yield_excess = 0.0
+        """σ of the last :meth:`step` (:func:`~wholebody_controller.contact_safety.yield_scale`;
+        0 unless the link yields)."""
 
     @property
     def link(self) -> str:
@@ -76,6 +79,7 @@ class ContactTask:
                                 np.asarray(rot, dtype=np.float64).reshape(1, 9),
                                 np.asarray(pos, dtype=np.float64).reshape(1, 3), float(yaw),
                                 outputs)
+        self.yield_excess = float(outputs[0, rows.O_YIELD])
         return task_outputs((self.link,), outputs, touched)[0]
 
     def reset(self) -> None:

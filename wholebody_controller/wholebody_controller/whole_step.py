@@ -24,8 +24,8 @@ from numpy.typing import NDArray
 
 from phri_common.jit import jitable
 from wholebody_controller.linalg3 import rotate
-from wholebody_controller.qp import assemble_qp, velocity_bounds_into
-from wholebody_controller.task_rows import N_CONTACT, O_PSI, S_POINT
+from wholebody_controller.qp import assemble_qp, velocity_bounds_into, yield_limits_into
+from wholebody_controller.task_rows import N_CONTACT, O_PSI, O_YIELD, S_POINT
 from wholebody_controller.task_step import step_task
 
 Array = NDArray[np.float64]
@@ -94,7 +94,8 @@ def step_robot(state: Array, params: Array, phi_gamma: Array, contacts: Array, x
         bodies: body id of each link; chains: (k, L, 3) each link's :func:`joint_chain`.
         xaxis, xanchor: MuJoCo's world joint axes and anchors (njnt×3).
         q: configuration (n) [m, rad]; previous: the previous command u (n);
-            limits: (5, n) q_l, q_u, q̇_l, q̇_u, a·dt (:func:`velocity_bounds_into`);
+            limits: (8, n) q_l, q_u, q̇_l, q̇_u, a·dt (:func:`velocity_bounds_into`) and the
+            yield's (:func:`~wholebody_controller.qp.yield_limits_into`);
             horizon h [s]; epsilon ε of (23).
         outputs, target, jacobian, hessian, gradient, lower, upper: written: the tasks' rows
             (k, N_OUT), b (6k), J in u (6k×n), H (n×n), g (n), the bounds (n each).
@@ -123,15 +124,23 @@ def qp_of_step(outputs: Array, jacobian: Array, q: Array, previous: Array, limit
                horizon: float, epsilon: float, target: Array, hessian: Array, gradient: Array,
                lower: Array, upper: Array) -> bool:
     """(22)–(23) of a step: the targets b_i and weights ψ_i from the tasks' output rows
-    (k × N_OUT), J (6k × n, in u), bounds from q, the previous command and ``limits`` (5×n:
-    q_l, q_u, q̇_l, q̇_u, a·dt), h and ε; writes ``target``, ``hessian``, ``gradient``,
-    ``lower``, ``upper``. Returns whether H's diagonal and g are finite."""
+    (k × N_OUT), J (6k × n, in u), bounds from q, the previous command and ``limits`` (8×n:
+    q_l, q_u, q̇_l, q̇_u, a·dt, then the yield's), h and ε; writes ``target``, ``hessian``,
+    ``gradient``, ``lower``, ``upper``. While a link yields, the bounds are opened by the
+    largest excess scale σ of the tasks (:func:`~wholebody_controller.qp.yield_limits_into`).
+    Returns whether H's diagonal and g are finite."""
     k = outputs.shape[0]
     weights = np.empty(6 * k)
+    sigma = 0.0
     for i in range(k):
         psi2 = 2.0 * outputs[i, O_PSI]
+        sigma = max(sigma, outputs[i, O_YIELD])
         for r in range(6):
             target[6 * i + r] = outputs[i, r]
             weights[6 * i + r] = psi2
-    velocity_bounds_into(q, previous, limits, horizon, lower, upper)
+    bounds = limits
+    if sigma > 0.0:
+        bounds = np.empty((5, limits.shape[1]))
+        yield_limits_into(limits, sigma, bounds)
+    velocity_bounds_into(q, previous, bounds, horizon, lower, upper)
     return assemble_qp(jacobian, target, weights, epsilon, hessian, gradient)

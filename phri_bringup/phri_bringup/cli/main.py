@@ -39,7 +39,8 @@ SCENARIO_HELP = (
     "set), waltz_tempo (the waltz at a real slow-waltz tempo, bar 2 s), waltz_paper (the waltz "
     "with the paper's literal parameter set); default waltz"
 )
-FAULT_CHOICES = ("skin_blind", "skin_stuck", "force_spike", "joint_jump")
+FAULT_CHOICES = ("skin_blind", "skin_stuck", "force_spike", "joint_jump", "skin_frozen_noisy",
+                 "skin_half_dead", "skin_gain")
 """phri_sim.world.sensor_faults.FAULT_KINDS (kept here so ``phri --help`` does not import the
 simulator; a test checks they agree)."""
 FAULT_HELP = (
@@ -47,7 +48,10 @@ FAULT_HELP = (
     "publishing; the controller is not told): skin_blind = every taxel reads 0 N from the fault "
     "time on; skin_stuck = taxels freeze at their last values; force_spike = the most loaded "
     "taxel reads 3e38 N for one frame; joint_jump = the left elbow reads 10 rad in one joint "
-    "state. metrics.json → 'fault' reports what the robot did after it (peak forces against "
+    "state; skin_frozen_noisy = a patch repeats its last frame with 0.5 %% noise; "
+    "skin_half_dead = half a patch reads 0 N; skin_gain = a patch reads --fault-value (3) × "
+    "its force (--fault-patch: which patch, default every one). metrics.json → 'fault' reports "
+    "what the robot did after it (peak forces against "
     "ISO/TS 15066, travel, time to stop / recover)"
 )
 
@@ -137,6 +141,17 @@ def _sim_arguments(sub: Any) -> None:
     sim.add_argument("--fault", choices=FAULT_CHOICES, default=None, help=FAULT_HELP)
     sim.add_argument("--fault-time", type=float, default=5.0, metavar="T",
                      help="sim time [s] the fault starts (default 5)")
+    sim.add_argument("--fault-patch", default="", metavar="PATCH",
+                     help="the patch skin_frozen_noisy / skin_half_dead / skin_gain act on "
+                          "(left_upper_arm, left_forearm, right_forearm; default every patch)")
+    sim.add_argument("--fault-value", type=float, default=0.0, metavar="X",
+                     help="skin_gain's factor, skin_frozen_noisy's relative noise (default 0: "
+                          "3 and 0.005)")
+    sim.add_argument("--shove", default="", metavar="F N@T s+D s",
+                     help="the partner shoves the waist into the left forearm with F newtons "
+                          "from T for D seconds, e.g. 250N@20s+3s (:force = a constant force; "
+                          "default :push, which falls as the partner advances; "
+                          "docs/phri_sim.md, Shove)")
     sim.add_argument("--fidelity", choices=("fast", "paper"), default="fast",
                      help="fast: 5 ms physics, skin sampled at 100 Hz (default); paper: the "
                           "paper's 2 ms physics and 500 Hz skin (docs/phri_sim.md)")
@@ -319,7 +334,9 @@ def _run_options(args: argparse.Namespace) -> Any:
 
     return RunOptions(duration=args.duration, short=args.short, seed=args.seed,
                       fidelity=args.fidelity, skin_driver=args.skin_driver,
-                      fault=args.fault or "", fault_time=args.fault_time)
+                      fault=args.fault or "", fault_time=args.fault_time,
+                      fault_patch=args.fault_patch, fault_value=args.fault_value,
+                      shove=args.shove)
 
 
 def _open_sinks(args: argparse.Namespace, out: Path, record_dir: Path | None) -> list[Any]:

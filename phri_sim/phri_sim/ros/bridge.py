@@ -16,6 +16,7 @@ Interface, parameters and ground-truth topics: ``docs/phri_sim.md``.
 from __future__ import annotations
 
 import array
+import math
 import sys
 from collections.abc import Callable
 from typing import Any
@@ -48,6 +49,7 @@ from phri_common.stamps import ns_to_stamp
 from phri_common.taxels import TaxelCloudEncoder
 from phri_sim.scenarios.catalogue import Q_HOME, SCENARIOS, Scenario, Script, start_scenario
 from phri_sim.world.sensor_faults import DEFAULT_FAULT_TIME, FAULT_KINDS, FaultSpec, SensorFaults
+from phri_sim.world.shove import Shove, ShoveSpec
 from phri_sim.world.simulation import ARM_JOINTS, CommandError, SimConfig, Simulation
 from phri_sim.world.skin_driver_loop import SkinLink
 from phri_sim.world.skin_footprint import SkinConfig
@@ -100,7 +102,16 @@ PARAMS: list[ParamSpec] = [
               unit="m", low=1e-4, high=0.05, read_only=True),
     ParamSpec("viewer", False, "open the MuJoCo viewer (needs a display)", read_only=True),
     ParamSpec("fault", "", "sensor fault to inject ('' = none): skin_blind, skin_stuck, "
-              "force_spike, joint_jump (docs: Fault injection)", read_only=True),
+              "force_spike, joint_jump, skin_frozen_noisy, skin_half_dead, skin_gain (docs: "
+              "Fault injection)", read_only=True),
+    ParamSpec("fault_patch", "", "the patch a skin_frozen_noisy / skin_half_dead / skin_gain "
+              "fault acts on, the patch force_spike spikes ('' = every patch / the first "
+              "touched)", read_only=True),
+    ParamSpec("fault_value", 0.0, "skin_gain: the factor; skin_frozen_noisy: the relative "
+              "noise; force_spike: the force [N]; joint_jump: the position [rad]; 0 = the "
+              "kind's default", low=-1e39, high=1e39, read_only=True),
+    ParamSpec("shove", "", "the partner shoves the waist: FORCE N@TIME s+DURATION s[:push|"
+              ":force], e.g. 250N@20s+3s ('' = none; docs: Shove)", read_only=True),
     ParamSpec("fault_time", DEFAULT_FAULT_TIME, "sim time from which the fault acts",
               unit="s", low=0.0, high=1e6, read_only=True),
 ]
@@ -163,8 +174,18 @@ def sensor_faults(values: dict[str, ParamValue], joint_names: tuple[str, ...]) -
     if fault and fault not in FAULT_KINDS:
         raise ValueError(f"parameter 'fault' refused value {fault!r}: allowed '' or "
                          f"{', '.join(FAULT_KINDS)}")
-    spec = FaultSpec(fault, float(values["fault_time"])) if fault else None
+    spec = FaultSpec(fault, float(values["fault_time"]), patch=str(values["fault_patch"]),
+                     value=float(values["fault_value"]) or math.nan) if fault else None
     return SensorFaults(spec, joint_names)
+
+
+def shove_of(values: dict[str, ParamValue]) -> Shove:
+    """The shove of the ``shove`` parameter; ValueError naming the parameter if malformed."""
+    text = str(values["shove"])
+    try:
+        return Shove(ShoveSpec.parse(text) if text else None)
+    except ValueError as err:
+        raise ValueError(f"parameter 'shove' refused value {text!r}: {err}") from None
 
 
 def _doubles(values: np.ndarray) -> array.array[float]:
@@ -257,6 +278,7 @@ class SimBridgeNode(Node):
         else:
             self.sim.reset(np.array(Q_HOME))
         self.faults = sensor_faults(v, self.sim.joint_names[3:])
+        self.shove = shove_of(v)
         self.period = float(v["control_period"])
         self.steps_per_period = max(1, round(self.period / self.sim.dt))
         self._skin_every = max(1, round(1.0 / (float(v["skin_rate_hz"]) * self.sim.dt)))
@@ -374,6 +396,8 @@ class SimBridgeNode(Node):
             if self.script is not None and i % self.steps_per_period == 0:
                 for part, target in self.script(self.sim.time).items():
                     self.sim.set_target(part, target)
+            if i % self.steps_per_period == 0:
+                self.shove.apply(self.sim, self.sim.time)
             self.sim.step()
             self.step_count += 1
             n = self.step_count

@@ -102,6 +102,10 @@ class RunOptions:
         viewer: open the MuJoCo viewer (needs a display).
         fault: sensor fault to inject ('' = none; the bridge checks the kind).
         fault_time: sim time the fault starts [s].
+        fault_patch: the patch a patch fault acts on ('' = every patch).
+        fault_value: the fault's factor / noise / value (0 = the kind's default).
+        shove: the partner's shove, ``FORCE N@TIME s+DURATION s[:kind]`` ('' = none;
+            :mod:`phri_sim.world.shove`).
     """
 
     duration: float | None = None
@@ -118,6 +122,9 @@ class RunOptions:
     viewer: bool = False
     fault: str = ""
     fault_time: float = DEFAULT_FAULT_TIME
+    fault_patch: str = ""
+    fault_value: float = 0.0
+    shove: str = ""
 
     def __post_init__(self) -> None:
         for name, allowed in (("fidelity", tuple(FIDELITIES)), ("controller", CONTROLLERS),
@@ -144,5 +151,6 @@ class RunOptions:
             "taxel_publish_rate_hz": _given(self.taxel_publish_rate_hz,
                                             fid.taxel_publish_rate_hz),
             "skin_driver": self.skin_driver, "fault": self.fault,
-            "fault_time": float(self.fault_time),
+            "fault_time": float(self.fault_time), "fault_patch": self.fault_patch,
+            "fault_value": float(self.fault_value), "shove": self.shove,
         }

@@ -175,6 +175,15 @@ def _metrics(scenario: Scenario, sim: Any, fault_time: float | None) -> MetricsR
     return metrics
 
 
+def _watched_time(options: RunOptions, bridge: SimBridgeNode) -> float | None:
+    """From when the metrics' ``fault`` block watches [s]: the fault's time, else the shove's
+    start; ``None`` without either."""
+    if options.fault:
+        return float(options.fault_time)
+    spec = bridge.shove.spec
+    return None if spec is None else spec.time
+
+
 class ScenarioRun:
     """One lock-step run of ``scenario`` with ``options`` through the real nodes (module
     docstring).
@@ -228,8 +237,7 @@ class ScenarioRun:
         self.lockstep = LockStep(self.executor, context, nodes,
                                  warn=self.probe.get_logger().warning)
         """Waits for each phase (:mod:`phri_sim.ros.lockstep`)."""
-        self.metrics = _metrics(scenario, self.bridge.sim,
-                                float(options.fault_time) if options.fault else None)
+        self.metrics = _metrics(scenario, self.bridge.sim, _watched_time(options, self.bridge))
         self._last_command = np.zeros(15)
         self._fresh_links: set[str] = set(SKIN_LINKS)
         self._skip_joints = False
@@ -339,6 +347,15 @@ class ScenarioRun:
         })
         if faults.spec is not None:
             summary["fault"]["kind"] = faults.spec.kind
+        shove = self.bridge.shove
+        if shove.spec is not None:
+            summary["shove"] = {"spec": self.options.shove, "kind": shove.spec.kind,
+                                "time": shove.spec.time, "duration": shove.spec.duration,
+                                "peak_applied": shove.peak,
+                                "direction": None if shove.direction is None
+                                else shove.direction.tolist()}
+            if faults.spec is None:
+                summary["fault"]["kind"] = f"shove {self.options.shove}"
         return summary
 
     def close(self) -> None:
@@ -406,6 +423,10 @@ def _arguments(argv: list[str] | None) -> argparse.Namespace:
                         help="inject a sensor fault (docs/phri_sim.md, Fault injection)")
     parser.add_argument("--fault-time", type=float, default=DEFAULT_FAULT_TIME,
                         help="sim time the fault starts [s] (default 5)")
+    parser.add_argument("--fault-patch", default="", help="the patch a patch fault acts on")
+    parser.add_argument("--fault-value", type=float, default=0.0,
+                        help="the fault's factor / noise / value (0 = the kind's default)")
+    parser.add_argument("--shove", default="", help="FORCE N@TIME s+DURATION s[:push|:force]")
     return parser.parse_args(argv)
 
 
@@ -424,6 +445,7 @@ def main(argv: list[str] | None = None) -> None:
         skin_idle_decimation=args.skin_idle_decimation,
         controller="stub" if args.stub else "node", sensor_transport=args.sensor_transport,
         viewer=args.viewer, fault=args.fault or "", fault_time=args.fault_time,
+        fault_patch=args.fault_patch, fault_value=args.fault_value, shove=args.shove,
     )
     metrics = run_scenario(args.scenario, options, output=args.out, progress=report)
     print(json.dumps(metrics, indent=2))

@@ -10,16 +10,30 @@ Kinds (:data:`FAULT_KINDS`), all from the fault time t_f [s] of sim time on:
 
 * ``skin_blind``: every taxel of every patch reads 0 N (a cut cable, a dead board) — persistent;
 * ``skin_stuck``: every patch repeats its last frame before t_f (a frozen driver) — persistent;
+* ``skin_frozen_noisy``: the patch repeats its last frame before t_f with fresh relative noise on
+  every taxel, f_j·(1 + σ n_j), n_j ~ N(0, 1), σ = ``value`` (default :data:`FROZEN_NOISE`,
+  0.5 %): a frozen driver behind a noisy analogue stage, which the bit-identical stuck check
+  cannot see — persistent;
+* ``skin_half_dead``: the first half of the patch's taxels (layout order) read 0 N (a dead
+  connector, a torn trace: a dead region) — persistent;
+* ``skin_gain``: every taxel of the patch reads ``value`` × its force (default
+  :data:`GAIN_FACTOR`: a gain far off, a wrong calibration file) — persistent;
 * ``force_spike``: one taxel reads :data:`SPIKE_FORCE` for one frame: the most loaded taxel of the
   first frame at or after t_f in which the patch is touched (a taxel > 0 N; with no
   ``patch`` given, any patch) — transient;
 * ``joint_jump``: one joint position (:data:`JUMP_JOINT`) reads :data:`JUMP_POSITION` in the
   first joint state at or after t_f (a corrupted encoder word) — transient.
+
+``skin_blind`` and ``skin_stuck`` act on every patch; the three newer skin faults on ``patch``
+('' = every patch; ``phri sim --fault-patch left_forearm``). The noise of ``skin_frozen_noisy``
+is drawn from a generator seeded by :data:`FROZEN_NOISE_SEED` and the patch name
+(deterministic).
 """
 
 from __future__ import annotations
 
 import math
+import zlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,7 +41,8 @@ from numpy.typing import NDArray
 
 FloatArray = NDArray[np.float64]
 
-FAULT_KINDS: tuple[str, ...] = ("skin_blind", "skin_stuck", "force_spike", "joint_jump")
+FAULT_KINDS: tuple[str, ...] = ("skin_blind", "skin_stuck", "force_spike", "joint_jump",
+                                "skin_frozen_noisy", "skin_half_dead", "skin_gain")
 """The fault kinds (module docstring)."""
 DEFAULT_FAULT_TIME = 5.0
 """Default fault time t_f [s] of sim time."""
@@ -38,6 +53,16 @@ JUMP_JOINT = "left_elbow_joint"
 """The joint whose reading jumps."""
 JUMP_POSITION = 10.0
 """The jumped reading [rad]: far outside the UR16e elbow's ±π."""
+FROZEN_NOISE = 0.005
+"""Relative noise σ of ``skin_frozen_noisy`` [-] (0.5 % of each taxel's frozen force)."""
+GAIN_FACTOR = 3.0
+"""Default gain factor of ``skin_gain`` [-]."""
+FROZEN_NOISE_SEED = 0x0F0E
+"""Seed of the frozen-noisy fault's noise (with the patch name's CRC-32)."""
+PATCH_FAULTS = ("skin_frozen_noisy", "skin_half_dead", "skin_gain")
+"""The skin faults that act on ``FaultSpec.patch`` only ('' = every patch)."""
+_DEFAULT_VALUES = {"force_spike": SPIKE_FORCE, "joint_jump": JUMP_POSITION,
+                   "skin_frozen_noisy": FROZEN_NOISE, "skin_gain": GAIN_FACTOR}
 
 
 @dataclass(frozen=True)
@@ -47,10 +72,12 @@ class FaultSpec:
     Attributes:
         kind: one of :data:`FAULT_KINDS`.
         time: fault time t_f [s] of sim time (≥ 0).
-        patch: ``force_spike`` only: the patch to spike ('' = the first touched patch).
+        patch: ``force_spike``: the patch to spike ('' = the first touched patch); the
+            :data:`PATCH_FAULTS`: the faulty patch ('' = every patch).
         joint: ``joint_jump`` only: the joint whose reading jumps.
-        value: the spiked force [N] / the jumped position [rad]; NaN = the kind's default
-            (:data:`SPIKE_FORCE`, :data:`JUMP_POSITION`).
+        value: the spiked force [N] / the jumped position [rad] / the frozen frame's relative
+            noise [-] / the gain factor [-]; NaN = the kind's default (:data:`SPIKE_FORCE`,
+            :data:`JUMP_POSITION`, :data:`FROZEN_NOISE`, :data:`GAIN_FACTOR`).
     """
 
     kind: str
@@ -64,6 +91,10 @@ class FaultSpec:
             raise ValueError(f"fault {self.kind!r} refused: allowed {', '.join(FAULT_KINDS)}")
         if not (math.isfinite(self.time) and self.time >= 0.0):
             raise ValueError(f"fault_time {self.time} refused: allowed [0, inf) s")
+        if not math.isnan(self.value) and self.kind in ("skin_frozen_noisy", "skin_gain") and \
+                not (math.isfinite(self.value) and 0.0 <= self.value <= 1000.0):
+            raise ValueError(f"fault_value {self.value} refused for {self.kind}: allowed "
+                             "[0, 1000]")
 
     @property
     def transient(self) -> bool:
@@ -72,10 +103,15 @@ class FaultSpec:
 
     @property
     def magnitude(self) -> float:
-        """The spiked force [N] or jumped position [rad] (the default when ``value`` is NaN)."""
+        """The spiked force [N], jumped position [rad], relative noise or gain factor [-] (the
+        kind's default when ``value`` is NaN; NaN for a kind without a value)."""
         if not math.isnan(self.value):
             return self.value
-        return SPIKE_FORCE if self.kind == "force_spike" else JUMP_POSITION
+        return _DEFAULT_VALUES.get(self.kind, math.nan)
+
+    def acts_on(self, patch: str) -> bool:
+        """Whether a :data:`PATCH_FAULTS` fault acts on ``patch``."""
+        return self.kind in PATCH_FAULTS and self.patch in ("", patch)
 
 
 class SensorFaults:
@@ -105,6 +141,7 @@ class SensorFaults:
             self._joint = joint_names.index(spec.joint)
         self._last: dict[str, FloatArray] = {}
         self._done = False
+        self._rngs: dict[str, np.random.Generator] = {}
 
     def _active(self, t: float, kind: str) -> bool:
         spec = self.spec
@@ -122,6 +159,9 @@ class SensorFaults:
                 return forces
             self._mark(patch, t)
             return self._last.setdefault(patch, forces.copy()).copy()
+        spec = self.spec
+        if spec is not None and spec.acts_on(patch):
+            return self._patch_fault(spec, patch, forces, t)
         if self._active(t, "force_spike") and not self._done and forces.size and (
             self.spec is not None and (self.spec.patch in ("", patch))
             and bool(np.any(forces > 0.0))
@@ -132,6 +172,29 @@ class SensorFaults:
             self._mark(patch, t)
             return out
         return forces
+
+    def _patch_fault(self, spec: FaultSpec, patch: str, forces: FloatArray,
+                     t: float) -> FloatArray:
+        """The :data:`PATCH_FAULTS` on ``patch``'s reading ``forces`` [N] at ``t`` [s]."""
+        if spec.kind == "skin_frozen_noisy" and t < spec.time - 1e-9:
+            self._last[patch] = forces.copy()
+            return forces
+        if t < spec.time - 1e-9:
+            return forces
+        self._mark(patch, t)
+        if spec.kind == "skin_gain":
+            return forces * spec.magnitude
+        if spec.kind == "skin_half_dead":
+            out = forces.copy()
+            out[: forces.size // 2] = 0.0
+            return out
+        frozen = self._last.setdefault(patch, forces.copy())
+        rng = self._rngs.get(patch)
+        if rng is None:
+            rng = self._rngs[patch] = np.random.default_rng(
+                [FROZEN_NOISE_SEED, zlib.crc32(patch.encode())])
+        noisy = frozen * (1.0 + spec.magnitude * rng.standard_normal(frozen.size))
+        return np.maximum(noisy, 0.0)
 
     def joints(self, q: FloatArray, t: float) -> FloatArray:
         """The joint positions [rad] a joint state sent at sim time ``t`` [s] reports for the true

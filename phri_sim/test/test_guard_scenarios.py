@@ -1,0 +1,87 @@
+"""Safe when following fails (the guard): the partner's shove and the skin faults that look like
+readings, on the short waltz through the real nodes.
+
+* The shove: the partner pushes the waist into the left forearm with 250 N for 3 s from 20 s
+  (the ``push`` kind, :mod:`phri_sim.world.shove`). Before the graded yield (the arm yielding at
+  0.15 m/s, held in the q_dance band and Table II's 0.15) the waist took 1671 N peak / 139 N
+  held and the torso struck the right upper arm (this test failed there). With it the abdomen
+  stays within its limits (220 N transient, 110 N held 0.5 s): 162 / 70 N.
+* A frozen-but-noisy left-forearm patch, a half-dead one: before, the robot drove on on the lie
+  (1.15 m and 0.75 m in 15 s, 83 / 80 N and 85 / 81 N on the waist, never stopping). With the
+  skin's plausibility checks the patch is refused (diagnostics ERROR), the contact input goes
+  stale and the command is an exact zero to the end (the lock-step runner's contact timeout is
+  2 s), the partner's forces within limits. The frozen detector is also checked alone (the
+  dead-region check, which finds the frozen patch first by its noiseless zeros, off).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import pytest
+
+from phri_sim.evaluation.body_forces import limit_failures
+from phri_sim.ros.run_options import RunOptions
+from phri_sim.ros.runner import run_scenario
+from phri_sim.scenarios.catalogue import SCENARIOS
+
+FAULT_TIME = 5.0
+AFTER = 5.0
+"""Seconds run after the fault / the shove's start."""
+
+
+def _within_limits(block: dict[str, Any]) -> None:
+    bad = {k: v for k, v in block["forces"]["person"].items() if not v["ok"]}
+    assert not bad, f"person pushed past ISO/TS 15066: {bad}"
+    assert not limit_failures(block["forces"])
+
+
+SHOVE_TIME = 20.0
+"""When the shove starts [s]: in the first turn, where the shoved torso, not let through,
+strikes the right upper arm (earlier, at 5 s, even the old 0.15 m/s yield kept within the
+limits)."""
+
+
+@pytest.mark.ros
+def test_a_250_N_shove_for_3_s_is_yielded_to_within_the_abdomen_limits() -> None:
+    m = run_scenario("waltz", RunOptions(duration=SHOVE_TIME + 5.0, seed=0,
+                                         shove=f"250N@{SHOVE_TIME:g}s+3s"))
+    assert m["shove"]["peak_applied"] == 250.0
+    waist = m["fault"]["forces"]["person"]["person_waist"]
+    assert waist["peak_force"] > 110.0  # the shove reached the limit: the yield was exercised
+    assert waist["peak_force"] <= 220.0, waist
+    assert waist["sustained_force"] <= 110.0, waist
+    _within_limits(m["fault"])
+
+
+def _stops_on(fault: str, after: float = AFTER, **estimation: float) -> dict[str, Any]:
+    scenario = SCENARIOS["waltz"]
+    if estimation:
+        scenario = dataclasses.replace(scenario, estimation_parameters={
+            **scenario.estimation_parameters, **estimation})
+    m = run_scenario(scenario, RunOptions(duration=FAULT_TIME + after, seed=1, fault=fault,
+                                          fault_patch="left_forearm", fault_time=FAULT_TIME))
+    f = m["fault"]
+    _within_limits(f)
+    # Stopped with an exact zero (every one of the 15 values) that lasts to the end.
+    assert f["time_to_stop"] is not None, f
+    return f
+
+
+@pytest.mark.ros
+def test_a_half_dead_patch_stops_the_robot_with_an_exact_zero() -> None:
+    f = _stops_on("skin_half_dead")
+    assert f["time_to_stop"] <= 3.5 and f["base_travel"] <= 0.3
+
+
+@pytest.mark.ros
+def test_a_frozen_noisy_patch_stops_the_robot_with_an_exact_zero() -> None:
+    f = _stops_on("skin_frozen_noisy")
+    assert f["time_to_stop"] <= 3.5 and f["base_travel"] <= 0.3
+
+
+@pytest.mark.ros
+def test_the_frozen_detector_alone_stops_a_frozen_noisy_patch() -> None:
+    f = _stops_on("skin_frozen_noisy", after=8.0, plausibility_dead_time=0.0)
+    assert f["time_to_stop"] <= 4.0 + 2.0 + 0.2  # ≤ two windows, then the runner's timeout

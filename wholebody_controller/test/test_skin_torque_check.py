@@ -1,0 +1,77 @@
+"""The skin against the joints' external-torque estimate (skin_torque_check) on synthetic data:
+a skin whose gain is far off, and a skin silent while the joints feel a contact, are verdicts
+after hold_time; a skin that agrees within noise is not."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from wholebody_controller.skin_torque_check import (
+    GAIN_OFF,
+    SKIN_SILENT,
+    SkinTorqueCheck,
+    TorqueCheckConfig,
+    expected_joint_torques,
+    gain_ratio,
+)
+
+RNG = np.random.default_rng(4)
+JACOBIANS = [RNG.normal(0.0, 0.5, (6, 6)) for _ in range(3)]
+WRENCHES = [np.array([0.0, -10.0, 0.0, 0.0, 0.0, 0.3]), np.zeros(6), np.zeros(6)]
+TRUE = expected_joint_torques(JACOBIANS, WRENCHES)
+
+
+def run(check: SkinTorqueCheck, skin_gain: float, in_contact: bool = True,
+        periods: int = 100) -> list[tuple[str, float]]:
+    """``periods`` cycles at 100 Hz of a skin that reads ``skin_gain`` × the true contact, the
+    joints measuring the truth with 0.1 N·m of noise; the verdicts with their times."""
+    verdicts = []
+    for k in range(periods):
+        measured = TRUE + RNG.normal(0.0, 0.1, TRUE.shape)
+        kind, message = check.update(skin_gain * TRUE, measured, in_contact, k * 0.01)
+        if kind:
+            assert message
+            verdicts.append((kind, k * 0.01))
+    return verdicts
+
+
+def test_expected_torques_are_the_transposed_jacobians_of_the_wrenches() -> None:
+    np.testing.assert_allclose(TRUE, JACOBIANS[0].T @ WRENCHES[0])
+    assert gain_ratio(3.0 * TRUE, TRUE) == pytest.approx(1.0 / 3.0)
+    assert np.linalg.norm(TRUE) > 3.0  # the synthetic contact is large enough to be judged
+
+
+def test_a_skin_that_agrees_gives_no_verdict() -> None:
+    assert run(SkinTorqueCheck(), 1.0) == []
+    assert run(SkinTorqueCheck(), 1.5) == []  # within the allowed ratio
+
+
+@pytest.mark.parametrize("gain", [3.0, 0.3])
+def test_a_gain_far_off_is_a_verdict_after_hold_time(gain: float) -> None:
+    verdicts = run(SkinTorqueCheck(TorqueCheckConfig(hold_time=0.3)), gain)
+    assert verdicts and verdicts[0][0] == GAIN_OFF
+    assert verdicts[0][1] == pytest.approx(0.3)
+
+
+def test_a_silent_skin_while_the_joints_feel_a_contact_is_a_verdict() -> None:
+    verdicts = run(SkinTorqueCheck(TorqueCheckConfig(silent_torque=2.0)), 0.0,
+                   in_contact=False)
+    assert verdicts and verdicts[0] == (SKIN_SILENT, pytest.approx(0.3))
+    # No contact anywhere: nothing to say.
+    check = SkinTorqueCheck()
+    assert check.update(np.zeros(6), RNG.normal(0.0, 0.1, 6), False, 0.0) == ("", "")
+
+
+def test_a_short_disagreement_is_forgotten() -> None:
+    check = SkinTorqueCheck(TorqueCheckConfig(hold_time=0.3))
+    assert run(check, 3.0, periods=20) == []  # 0.2 s
+    assert run(check, 1.0, periods=5) == []
+    assert run(check, 3.0, periods=20) == []  # the clock restarted
+
+
+def test_refusals() -> None:
+    with pytest.raises(ValueError, match="one size"):
+        SkinTorqueCheck().update(np.zeros(6), np.zeros(5), True, 0.0)
+    with pytest.raises(ValueError, match="max_gain_ratio"):
+        TorqueCheckConfig(max_gain_ratio=0.5)
