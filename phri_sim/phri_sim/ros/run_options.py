@@ -102,6 +102,8 @@ class RunOptions:
         viewer: open the MuJoCo viewer (needs a display).
         fault: sensor fault to inject ('' = none; the bridge checks the kind).
         fault_time: sim time the fault starts [s].
+        protective_stop: the arms' own protective stop (false: arms that never stop
+            themselves, for comparisons; bridge parameter ``protective_stop``).
     """
 
     duration: float | None = None
@@ -118,6 +120,7 @@ class RunOptions:
     viewer: bool = False
     fault: str = ""
     fault_time: float = DEFAULT_FAULT_TIME
+    protective_stop: bool = True
 
     def __post_init__(self) -> None:
         for name, allowed in (("fidelity", tuple(FIDELITIES)), ("controller", CONTROLLERS),
@@ -144,5 +147,5 @@ class RunOptions:
             "taxel_publish_rate_hz": _given(self.taxel_publish_rate_hz,
                                             fid.taxel_publish_rate_hz),
             "skin_driver": self.skin_driver, "fault": self.fault,
-            "fault_time": float(self.fault_time),
+            "fault_time": float(self.fault_time), "protective_stop": self.protective_stop,
         }
