@@ -54,7 +54,7 @@ from std_srvs.srv import Trigger
 from phri_common.cdr import (
     CdrError,
     Float64ArrayEncoder,
-    joint_state_from_cdr,
+    joint_state_arrays_from_cdr,
     odometry_pose_from_cdr,
     twist_to_cdr,
 )
@@ -69,13 +69,14 @@ from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
 from wholebody_controller.contact_safety import Safety
 from wholebody_controller.controller import KinematicsModel, WholeBodyController
-from wholebody_controller.freshness import FreshnessConfig, InputFreshness
+from wholebody_controller.freshness import InputFreshness
 from wholebody_controller.input_checks import (
     InputError,
     check_contact_force,
     check_joint_positions,
     check_odometry_jump,
 )
+from wholebody_controller.kinematics import RobotKinematics
 from wholebody_controller.messages import (
     SPEED_SCALING_TOPIC,
     loop_status,
@@ -86,34 +87,20 @@ from wholebody_controller.messages import (
     speed_scaling_fraction,
     speed_scaling_status,
     task_state_to_msg,
+    unsensed_status,
 )
 from wholebody_controller.parameters import (
     GLOBAL_PARAMS,
     LINKS_PARAM,
     config_from_values,
     control_loop_mode,
+    freshness_config,
     link_param_specs,
+    torque_guard_config,
 )
 from wholebody_controller.qp import QPError
 from wholebody_controller.speed_scaling import ARM_COMMAND_SLICES, scale_to_slowest
-
-
-def default_kinematics() -> KinematicsModel:
-    """The robot's kinematics from phri_description (MuJoCo)."""
-    from wholebody_controller.kinematics import RobotKinematics
-
-    kin: KinematicsModel = RobotKinematics()
-    return kin
-
-
-def freshness_config(values: dict[str, ParamValue]) -> FreshnessConfig:
-    """The input timeouts [s] from the node's parameter values."""
-    return FreshnessConfig(
-        contact_timeout=float(values["contact_timeout"]),
-        joint_state_timeout=float(values["joint_state_timeout"]),
-        odom_timeout=float(values["odom_timeout"]),
-    )
-
+from wholebody_controller.torque_guard import TorqueWatch
 
 CONTACT_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=25,
                          reliability=ReliabilityPolicy.BEST_EFFORT)
@@ -152,7 +139,8 @@ class WholeBodyControllerNode(Node):
         # Before anything can fail: rclpy destroys even a node whose constructor raised.
         self.loop: PeriodicThread | None = None
         self._polled: list[tuple[PolledSubscription, Callable[[bytes], None]]] = []
-        self.kinematics = kinematics if kinematics is not None else default_kinematics()
+        self.kinematics: KinematicsModel = kinematics if kinematics is not None \
+            else RobotKinematics()
         joints = list(self.kinematics.joint_names)
         self.arm_joints: tuple[str, ...] = tuple(joints[3:])
         self.left_joints, self.right_joints = self.arm_joints[0:6], self.arm_joints[6:12]
@@ -168,6 +156,8 @@ class WholeBodyControllerNode(Node):
         self.freshness = InputFreshness(self.links, self.arm_joints,
                                         freshness_config(self.params))
         self.controller = WholeBodyController(self.kinematics, self._config(self.params))
+        self.torque_watch = TorqueWatch(torque_guard_config(self.params),  # contacts no skin feels
+                                        self.kinematics.position_limits)
         use_sim_time = bool(self.get_parameter("use_sim_time").value)
         self.control_loop = control_loop_mode(str(self.params["control_loop"]), use_sim_time)
         """``thread`` or ``timer`` (module docstring)."""
@@ -283,6 +273,7 @@ class WholeBodyControllerNode(Node):
             with self.cycle_lock:
                 self.controller.configure(config)
                 self.freshness.config = timeouts
+                self.torque_watch.config = torque_guard_config(values)
 
     # -- inputs ---------------------------------------------------------------------------------
     def now_s(self) -> float:
@@ -343,7 +334,7 @@ class WholeBodyControllerNode(Node):
     def on_joints_bytes(self, data: bytes) -> None:
         """A serialized joint state (the subscription's path)."""
         try:
-            decoded = joint_state_from_cdr(data)
+            decoded = joint_state_arrays_from_cdr(data)
         except CdrError as err:
             self._refuse("joint state", err)
             self.freshness.joints_refused(set(self.arm_joints))  # F9: names unreadable
@@ -355,10 +346,12 @@ class WholeBodyControllerNode(Node):
 
     def on_joints(self, msg: JointState) -> None:
         """A joint state message."""
-        self.take_joints(msg.name, msg.position)
+        self.take_joints(msg.name, msg.position, msg.velocity, msg.effort)
 
-    def take_joints(self, names: Sequence[str], position: Sequence[float]) -> None:
-        """Check a joint state's names and positions [rad] and keep them (or refuse them)."""
+    def take_joints(self, names: Sequence[str], position: Sequence[float],
+                    velocity: Sequence[float] = (), effort: Sequence[float] = ()) -> None:
+        """Check a joint state's names and positions [rad] and keep them (or refuse them); its
+        velocities [rad/s] and efforts [N·m] go to the external-torque estimate."""
         try:
             positions = positions_by_name(names, position)
             check_joint_positions(positions, self.joint_limits,
@@ -371,6 +364,7 @@ class WholeBodyControllerNode(Node):
             if name in positions:
                 self.arm_q[i] = positions[name]
         self.freshness.joints_arrived(positions.keys(), self.now_s())
+        self.torque_watch.estimator.joints(self.now_s(), names, position, velocity, effort)
 
     def on_odom_bytes(self, data: bytes) -> None:
         """Serialized odometry (the subscription's path)."""
@@ -407,6 +401,7 @@ class WholeBodyControllerNode(Node):
             return
         self.base_q = base
         self.freshness.odom_arrived(self.now_s())
+        self.torque_watch.estimator.base(self.now_s(), base)
 
     def on_speed_scaling_bytes(self, arm: str, data: bytes) -> None:
         """A serialized speed scaling of ``arm`` (std_msgs/Float64, percent); unreadable bytes
@@ -545,7 +540,11 @@ class WholeBodyControllerNode(Node):
             self.publish_zero()
             return
         self._track_safety(result.tasks)
-        self.publish_command(scale_to_slowest(result.command, self.speed_scaling))
+        command = self.torque_watch.apply(self.controller, now_ns * 1e-9, result.command, q,
+                                          self.contacts)  # contacts no skin feels
+        if self.torque_watch.changed:
+            self.publish_diagnostics()
+        self.publish_command(scale_to_slowest(command, self.speed_scaling))
         frame = str(self.params["world_frame"])
         for i, task in enumerate(result.tasks):
             pub = self.state_pubs[task.link]
@@ -577,6 +576,7 @@ class WholeBodyControllerNode(Node):
         statuses.append(loop_status(name, self.control_loop, self.loop, self.fatal_error))
         statuses.append(speed_scaling_status(name, scaling,
                                              float(self.params["min_speed_scaling"])))
+        statuses.append(unsensed_status(name, self.torque_watch.report))
         msg = DiagnosticArray(status=statuses)
         msg.header.stamp = ns_to_stamp(self.clock_ns())
         self.diag_pub.publish(msg)
