@@ -96,7 +96,7 @@ def test_a_growing_unsensed_push_slows_then_stops_and_backs_off(dynamics: ArmDyn
     slowed = arm.cycle(wrist_push(0.75))
     assert arm.watch.report.state is GuardState.SLOWING
     scale = (1 - 0.75) / (1 - 0.5)
-    assert slowed[:3] == pytest.approx(COMMAND[:3] * scale)
+    assert slowed[:3] == pytest.approx(COMMAND[:3] * scale)  # no force on the base: all of it
     tau = wrist_push(0.75)
     against = COMMAND[3:] * tau[3:] < 0
     assert slowed[3:][against] == pytest.approx(COMMAND[3:][against] * scale)
@@ -180,9 +180,16 @@ def test_slow_command_scales_only_the_motion_into_the_contact() -> None:
     command = np.zeros(15)
     command[:3] = [0.2, 0.0, 0.1]
     command[3:5] = [0.1, 0.1]  # joint 3 gives way (along τ), joint 4 pushes (against)
-    out = slow_command(command, tau, 0.5)
-    assert out[:3] == pytest.approx([0.1, 0.0, 0.05])
+    out = slow_command(command, tau, 0.5, 0.0)
+    assert out[:3] == pytest.approx([0.1, 0.0, 0.05])  # the base reports no force: all of it
     assert out[3] == pytest.approx(0.1) and out[4] == pytest.approx(0.05)
+    tau[:3] = [0.0, 20.0, -3.0]  # a push on the base along world +y, a torque about −z
+    yaw = 0.5 * math.pi  # world +y is the base's +x
+    command[:3] = [-0.2, 0.1, 0.1]  # into the push along base x, across it along base y
+    out = slow_command(command, tau, 0.5, yaw)
+    assert out[:3] == pytest.approx([-0.1, 0.1, 0.05])
+    command[:3] = [0.2, 0.1, -0.1]  # giving way to both
+    assert slow_command(command, tau, 0.5, yaw)[:3] == pytest.approx([0.2, 0.1, -0.1])
 
 
 def test_resume_ratio_above_slow_ratio_is_refused() -> None:

@@ -8,10 +8,11 @@ limit L_j (``unsensed_torque_stop``) the ratio ρ = max_j |τ_un,j| / L_j decide
 cycle after the QP (the step itself is unchanged):
 
 * ρ < a (``unsensed_slow_ratio``): **OK**, the command passes unchanged.
-* a ≤ ρ < 1: **SLOWING**: the base twist and every arm joint velocity that works *against* its
-  external torque (q̇_j τ_un,j < 0, i.e. pushes into the contact) are scaled by
-  s = (1 − ρ) / (1 − a), reaching 0 at the limit; joint motion *along* the torque (giving way)
-  is kept.
+* a ≤ ρ < 1: **SLOWING**: every motion *into* the contact is scaled by s = (1 − ρ) / (1 − a),
+  reaching 0 at the limit — an arm joint velocity or the yaw rate against its unexplained torque
+  (q̇_j τ_un,j < 0), the base's planar velocity's component against its unexplained force (the
+  whole base twist when the base reports no force) —; motion *along* the torque (giving way) is
+  kept.
 * ρ ≥ 1: **STOPPED**: the base stops (zero twist: it cannot sense the contact and must not carry
   the arm on into it), and the arms **back off**: each joint moves along its unexplained torque,
   q̇_j = ``unsensed_backoff_speed`` · clip(τ_un,j / L_j, −1, 1) — the direction that relieves the
@@ -151,11 +152,25 @@ def axis_ratios(tau: FloatArray, limits: FloatArray) -> FloatArray:
     return np.asarray(ratios)
 
 
-def slow_command(command: FloatArray, tau: FloatArray, scale: float) -> FloatArray:
-    """SLOWING (module docstring): ``command`` (15) with the base twist and every arm joint
-    velocity against its external torque (``tau``, 15, q order) scaled by ``scale``."""
+def slow_command(command: FloatArray, tau: FloatArray, scale: float, yaw: float) -> FloatArray:
+    """SLOWING (module docstring): ``command`` (15; the base's part a base-frame twist) with
+    every motion into the contact scaled by ``scale``: each arm joint velocity and the yaw rate
+    against its own unexplained torque (``tau``, 15, q order), and the base's planar velocity's
+    component against the unexplained planar force (world frame, turned into the base frame at
+    ``yaw``); a base whose drives report no force (τ_x = τ_y = 0) has its whole twist scaled."""
     out = np.array(command, dtype=np.float64)
-    out[:3] *= scale
+    fx, fy = world_to_base(yaw, float(tau[0]), float(tau[1]))
+    norm = math.hypot(fx, fy)
+    if norm == 0.0 and tau[2] == 0.0:
+        out[:3] *= scale
+    else:
+        if norm > 0.0:
+            along = (out[0] * fx + out[1] * fy) / norm
+            if along < 0.0:
+                out[0] -= (1.0 - scale) * along * fx / norm
+                out[1] -= (1.0 - scale) * along * fy / norm
+        if out[2] * tau[2] < 0.0:
+            out[2] *= scale
     arms = out[3:]
     against = arms * tau[3:] < 0.0
     arms[against] *= scale
@@ -270,7 +285,7 @@ class TorqueWatch:
         if report.state is GuardState.SLOWING:
             report.slowed += 1
             report.scale = (1.0 - rho) / (1.0 - c.slow_ratio)
-            return slow_command(command, tau, report.scale), False
+            return slow_command(command, tau, report.scale, float(q[2])), False
         return command, False
 
     def _transition(self, t: float, rho: float) -> bool:
