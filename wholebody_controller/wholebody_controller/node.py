@@ -139,8 +139,7 @@ class WholeBodyControllerNode(Node):
         # Before anything can fail: rclpy destroys even a node whose constructor raised.
         self.loop: PeriodicThread | None = None
         self._polled: list[tuple[PolledSubscription, Callable[[bytes], None]]] = []
-        self.kinematics: KinematicsModel = kinematics if kinematics is not None \
-            else RobotKinematics()
+        self.kinematics = kinematics if kinematics is not None else RobotKinematics()
         joints = list(self.kinematics.joint_names)
         self.arm_joints: tuple[str, ...] = tuple(joints[3:])
         self.left_joints, self.right_joints = self.arm_joints[0:6], self.arm_joints[6:12]
@@ -156,8 +155,6 @@ class WholeBodyControllerNode(Node):
         self.freshness = InputFreshness(self.links, self.arm_joints,
                                         freshness_config(self.params))
         self.controller = WholeBodyController(self.kinematics, self._config(self.params))
-        self.torque_watch = TorqueWatch(torque_guard_config(self.params),  # contacts no skin feels
-                                        self.kinematics.position_limits)
         use_sim_time = bool(self.get_parameter("use_sim_time").value)
         self.control_loop = control_loop_mode(str(self.params["control_loop"]), use_sim_time)
         """``thread`` or ``timer`` (module docstring)."""
@@ -207,6 +204,8 @@ class WholeBodyControllerNode(Node):
     def _create_interfaces(self, direct_state_inputs: bool) -> None:
         """Publishers, subscriptions (no state topics for ``direct_state_inputs``), services and
         timers (see the module docstring)."""
+        self.torque_watch = TorqueWatch(torque_guard_config(self.params),  # contacts no skin feels
+                                        self.kinematics.position_limits)
         # Commands are published as serialized bytes (phri_common.cdr): same messages, without
         # building three message objects per cycle.
         self._arm_encoders = (Float64ArrayEncoder(",".join(self.left_joints), 6),
