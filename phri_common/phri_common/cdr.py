@@ -7,6 +7,7 @@ subscription with ``raw=True`` hands over the serialized bytes, and ``Publisher.
 accepts bytes; these pure functions read and write them:
 
 * :func:`joint_state_from_cdr`: ``sensor_msgs/JointState`` → (names, positions);
+* :func:`joint_state_arrays_from_cdr`: the same with the velocities and efforts;
 * :func:`odometry_pose_from_cdr`: ``nav_msgs/Odometry`` → (x, y, qx, qy, qz, qw) of the pose;
 * :func:`twist_to_cdr`: (v_x, v_y, ω_z) → ``geometry_msgs/Twist``;
 * :class:`Float64ArrayEncoder`: a fixed layout of ``std_msgs/Float64MultiArray`` with fresh data.
@@ -125,6 +126,25 @@ def joint_state_from_cdr(data: bytes) -> tuple[tuple[str, ...], tuple[float, ...
     return names, positions
 
 
+def joint_state_arrays_from_cdr(data: bytes) -> tuple[
+        tuple[str, ...], tuple[float, ...], tuple[float, ...], tuple[float, ...]] | None:
+    """``(name, position, velocity, effort)`` of a serialized ``sensor_msgs/JointState``
+    [rad or m, rad/s or m/s, N·m or N; a field the sender left empty is empty]; ``None`` for
+    big-endian bytes.
+
+    Raises:
+        CdrError: truncated or inconsistent bytes (names the field).
+    """
+    if data[:2] != LITTLE_ENDIAN:
+        return None
+    offset = _skip_header(data, "joint state")
+    names, offset = _read_names(data, _align(offset, 4))
+    positions, offset = _read_doubles(data, offset, "position")
+    velocities, offset = _read_doubles(data, offset, "velocity")
+    efforts, _ = _read_doubles(data, offset, "effort")
+    return names, positions, velocities, efforts
+
+
 def odometry_pose_from_cdr(data: bytes) -> tuple[float, ...] | None:
     """``(x, y, z, qx, qy, qz, qw)`` of ``pose.pose`` in a serialized ``nav_msgs/Odometry``
     [m, unit quaternion]; ``None`` for big-endian bytes.
@@ -183,4 +203,5 @@ class Float64ArrayEncoder:
 
 
 __all__ = ["LITTLE_ENDIAN", "MAX_NAMES", "CdrError", "Float64ArrayEncoder",
-           "joint_state_from_cdr", "odometry_pose_from_cdr", "twist_to_cdr"]
+           "joint_state_arrays_from_cdr", "joint_state_from_cdr", "odometry_pose_from_cdr",
+           "twist_to_cdr"]

@@ -18,6 +18,7 @@ from phri_common.cdr import (
     MAX_NAMES,
     CdrError,
     Float64ArrayEncoder,
+    joint_state_arrays_from_cdr,
     joint_state_from_cdr,
     odometry_pose_from_cdr,
     twist_to_cdr,
@@ -61,6 +62,20 @@ def test_joint_states_read_as_rclpy_wrote_them() -> None:
         assert decoded is not None
         assert decoded[0] == tuple(msg.name)
         assert decoded[1] == tuple(msg.position)
+
+
+def test_joint_state_arrays_read_as_rclpy_wrote_them() -> None:
+    """Velocities and efforts too (the controller's external-torque estimate reads them); an
+    empty field reads empty."""
+    rng = np.random.default_rng(RNG_SEED)
+    for _ in range(200):
+        msg = joint_state(rng)
+        if rng.random() < 0.7:
+            msg.effort = rng.normal(size=len(msg.name)).tolist()
+        decoded = joint_state_arrays_from_cdr(serialize_message(msg))
+        assert decoded == (tuple(msg.name), tuple(msg.position), tuple(msg.velocity),
+                           tuple(msg.effort))
+    assert joint_state_arrays_from_cdr(big_endian(serialize_message(joint_state(rng)))) is None
 
 
 def test_odometry_pose_read_as_rclpy_wrote_it() -> None:

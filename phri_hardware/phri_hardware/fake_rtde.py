@@ -16,9 +16,11 @@ It speaks the receive side of Universal Robots' RTDE protocol, version 2, as doc
 
 Served outputs: ``timestamp``, ``actual_q``, ``actual_qd``, ``target_q``, ``target_qd``,
 ``robot_mode``, ``safety_mode``, ``safety_status_bits``, ``runtime_state``, ``speed_scaling``,
-``target_speed_fraction``, set from a :class:`FakeRobotState` a test can change while the server
-runs (the last two: the trajectory limiter's scaling and the teach pendant's speed slider, which
-ur_rtde's ``getSpeedScalingCombined`` multiplies, as ur_robot_driver does).
+``target_speed_fraction``, ``actual_current``, ``target_current``, ``target_moment``, set from a
+:class:`FakeRobotState` a test can change while the server runs (``speed_scaling`` and
+``target_speed_fraction``: the trajectory limiter's scaling and the teach pendant's speed
+slider, which ur_rtde's ``getSpeedScalingCombined`` multiplies, as ur_robot_driver does; the
+currents [A] and target moments [N·m]: what the bridge turns into joint efforts).
 
 Safety of the fake itself: it binds 127.0.0.1 only, serves at most :data:`MAX_CLIENTS` clients
 at once (one thread each: ur_rtde's receive and control interfaces each open their own RTDE
@@ -61,6 +63,9 @@ class FakeRobotState:
     speed_scaling: float = 1.0  # the trajectory limiter's scaling, 0–1
     target_speed_fraction: float = 1.0  # the teach pendant's speed slider, 0–1
     runtime_state: int = 2  # PLAYING (RTDE guide: 0 stopping … 4 paused, 5 resuming)
+    actual_current: tuple[float, ...] = (0.0,) * 6  # [A]
+    target_current: tuple[float, ...] = (0.0,) * 6  # [A]
+    target_moment: tuple[float, ...] = (0.0,) * 6  # [N·m]
     lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
     def safety_status_bits(self) -> int:
@@ -83,6 +88,9 @@ _OUTPUTS: dict[str, tuple[str, str, Callable[[FakeRobotState, float], object]]] 
     "runtime_state": ("UINT32", "I", lambda s, t: s.runtime_state),
     "speed_scaling": ("DOUBLE", "d", lambda s, t: s.speed_scaling),
     "target_speed_fraction": ("DOUBLE", "d", lambda s, t: s.target_speed_fraction),
+    "actual_current": ("VECTOR6D", "6d", lambda s, t: s.actual_current),
+    "target_current": ("VECTOR6D", "6d", lambda s, t: s.target_current),
+    "target_moment": ("VECTOR6D", "6d", lambda s, t: s.target_moment),
 }
 
 

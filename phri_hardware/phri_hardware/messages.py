@@ -19,12 +19,15 @@ def joint_names(prefix: str) -> list[str]:
 
 
 def arm_state_to_joint_state(names: Sequence[str], state: ArmState, stamp: Time) -> JointState:
-    """JointState with positions [rad] and velocities [rad/s] of one arm."""
+    """JointState with positions [rad], velocities [rad/s] and, once every joint's is known,
+    efforts [N·m] (the drives' torques, gravity included) of one arm."""
     msg = JointState()
     msg.header.stamp = stamp
     msg.name = list(names)
     msg.position = [float(x) for x in state.q]
     msg.velocity = [float(x) for x in state.qd]
+    if all(math.isfinite(x) for x in state.effort):
+        msg.effort = [float(x) for x in state.effort]
     return msg
 
 

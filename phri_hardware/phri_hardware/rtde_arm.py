@@ -7,6 +7,18 @@ Only this module imports ``rtde_control`` / ``rtde_receive``, and only inside
 The receive interface asks only for the outputs the bridge reads (:data:`RECEIVE_VARIABLES`),
 which every e-Series and CB3 controller serves. ``receive_only`` (the bridge's monitor mode)
 opens no control interface at all: no dashboard connection, no control script, no command.
+
+Joint efforts (``/joint_states`` ``effort``, docs/interfaces.md "Joint efforts"): the torque each
+drive applies, gravity included. A UR reports it as RTDE ``actual_current_as_torque`` from
+PolyScope 5.23 / 10.11 on (what ur_robot_driver publishes with ``use_currents_as_efforts:
+false``), but ur_rtde 1.6.5's Python binding has no getter for it (its C++ library has
+``getActualCurrentAsTorque``). What the binding reads on every e-Series: the measured currents
+``actual_current`` [A] and the controller's target currents and target moments
+(``target_current`` [A], ``target_moment`` [N·m], the model's torques for the commanded motion,
+gravity included). :class:`CurrentTorque` turns them into a torque: τ_j = i_actual,j · k_j with
+k_j = τ_target,j / i_target,j, the controller's own torque per ampere, taken whenever
+|i_target,j| ≥ :data:`MIN_TARGET_CURRENT` and kept (nan until the first). An estimate: check it
+against ``actual_current_as_torque`` (or ur_robot_driver) on the robot before relying on it.
 """
 
 from __future__ import annotations
@@ -20,10 +32,33 @@ from typing import Any
 from phri_hardware.ur_arm import DISCONNECTED_STATE, ArmState
 
 RECEIVE_VARIABLES = ["actual_q", "actual_qd", "robot_mode", "safety_mode", "safety_status_bits",
-                     "speed_scaling", "target_speed_fraction", "runtime_state"]
+                     "speed_scaling", "target_speed_fraction", "runtime_state",
+                     "actual_current", "target_current", "target_moment"]
 """RTDE outputs the bridge reads (``isProtectiveStopped``/``isEmergencyStopped`` use the
 safety status bits; ``getSpeedScalingCombined`` the speed scaling, the pendant's speed slider
-and the runtime state)."""
+and the runtime state; the efforts the currents and target moments)."""
+
+MIN_TARGET_CURRENT = 0.1
+"""Least |target current| [A] from which a joint's torque per ampere is taken."""
+
+
+class CurrentTorque:
+    """Joint torques from RTDE's currents (module docstring): τ = i_actual · k, k = the last
+    τ_target / i_target with |i_target| ≥ :data:`MIN_TARGET_CURRENT` (nan before)."""
+
+    def __init__(self) -> None:
+        self.per_ampere = [math.nan] * 6
+
+    def torques(self, actual: Sequence[float], target: Sequence[float],
+                moment: Sequence[float]) -> tuple[float, ...]:
+        """The drives' torques [N·m] from actual and target currents [A] and target moments
+        [N·m] (6 each; anything else: nan)."""
+        if not all(isinstance(v, Sequence) and len(v) == 6 for v in (actual, target, moment)):
+            return (math.nan,) * 6
+        for j in range(6):
+            if abs(target[j]) >= MIN_TARGET_CURRENT and math.isfinite(moment[j]):
+                self.per_ampere[j] = moment[j] / target[j]
+        return tuple(float(a) * k for a, k in zip(actual, self.per_ampere, strict=True))
 
 
 @dataclass(frozen=True)
@@ -53,6 +88,7 @@ class UrRtdeArm:
         self.receive_only = receive_only
         self._receive: Any = None
         self._control: Any = None
+        self._torque = CurrentTorque()
 
     def connect(self) -> None:
         """Open RTDE receive, then (unless receive-only) RTDE control, which connects to the
@@ -93,6 +129,9 @@ class UrRtdeArm:
                 ),
                 connected=True,
                 speed_scaling=float(self._receive.getSpeedScalingCombined()),
+                effort=self._torque.torques(self._receive.getActualCurrent(),
+                                            self._receive.getTargetCurrent(),
+                                            self._receive.getTargetMoment()),
             )
         except RuntimeError:
             return DISCONNECTED_STATE
@@ -125,4 +164,5 @@ class UrRtdeArm:
         self._control = self._receive = None
 
 
-__all__ = ["RECEIVE_VARIABLES", "UrRtdeArm", "UrRtdeArmFactory"]
+__all__ = ["MIN_TARGET_CURRENT", "RECEIVE_VARIABLES", "CurrentTorque", "UrRtdeArm",
+           "UrRtdeArmFactory"]

@@ -102,6 +102,9 @@ class ArmState:
             teach pendant's speed slider (RTDE ``target_speed_fraction``) times the trajectory
             limiter's scaling (``speed_scaling``), ramped up from 0 after a pause (ur_rtde
             ``getSpeedScalingCombined``, the value ur_robot_driver publishes).
+        effort: the torque each joint's drive applies [N·m], gravity included
+            (:mod:`phri_hardware.rtde_arm`: from RTDE's currents and target moments); nan where
+            not known yet.
     """
 
     q: tuple[float, ...]
@@ -113,6 +116,7 @@ class ArmState:
     program_running: bool = True
     connected: bool = True
     speed_scaling: float = 1.0
+    effort: tuple[float, ...] = (math.nan,) * 6
 
 
 DISCONNECTED_STATE = ArmState(

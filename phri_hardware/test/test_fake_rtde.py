@@ -9,6 +9,7 @@ root cause.
 
 from __future__ import annotations
 
+import math
 import time
 
 import pytest
@@ -90,6 +91,28 @@ def test_speed_scaling_is_read_as_ur_robot_driver_reads_it(rtde_server: FakeRtde
         values = [x.state.speed_scaling for x in ramp]
         assert values and values[-1] == pytest.approx(0.3)
         assert any(0.0 < v < 0.3 for v in values), values
+    finally:
+        link.close()
+
+
+def test_joint_efforts_are_read_from_rtde_currents_and_target_moments(
+    rtde_server: FakeRtdeServer,
+) -> None:
+    """The real ur_rtde reads actual_current, target_current and target_moment from the fake
+    controller; the bridge's efforts are the actual currents times the controller's own torque
+    per ampere (target moment / target current), nan for a joint without target current yet."""
+    with rtde_server.state.lock:
+        rtde_server.state.actual_current = (1.0, 5.0, 2.5, 0.4, 0.2, 0.0)
+        rtde_server.state.target_current = (1.0, 4.0, 2.0, 0.5, 0.2, 0.0)
+        rtde_server.state.target_moment = (10.0, 80.0, 30.0, 5.0, 1.0, 0.0)
+    link = _link(UrRtdeArmFactory("127.0.0.1", 100.0, receive_only=True), monitor=True)
+    link.start()
+    try:
+        reports = _poll_until(link, lambda lk, r: len(r) >= 5, timeout=WAIT_S)
+        assert reports, f"no reports: {link.status}"
+        effort = reports[-1].state.effort
+        assert effort[:5] == pytest.approx((10.0, 100.0, 37.5, 4.0, 1.0))
+        assert math.isnan(effort[5])
     finally:
         link.close()
 

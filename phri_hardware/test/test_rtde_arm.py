@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import sys
 import types
 from typing import Any
@@ -15,7 +16,7 @@ from phri_hardware.ur_arm import RobotMode, SafetyMode
 
 RECEIVE_CALLS = ("isConnected", "getActualQ", "getActualQd", "getRobotMode", "getSafetyMode",
                  "isProtectiveStopped", "isEmergencyStopped", "getSpeedScalingCombined",
-                 "disconnect")
+                 "getActualCurrent", "getTargetCurrent", "getTargetMoment", "disconnect")
 CONTROL_CALLS = ("isConnected", "isProgramRunning", "speedJ", "speedStop", "setWatchdog",
                  "kickWatchdog", "reuploadScript", "stopScript", "disconnect")
 
@@ -44,7 +45,10 @@ class Recorder:
             raise RuntimeError("RTDE connection lost")
         return {"getActualQ": [0.1] * 6, "getActualQd": [0.0] * 6,
                 "getRobotMode": 7, "getSafetyMode": 1, "isProtectiveStopped": False,
-                "isEmergencyStopped": False, "getSpeedScalingCombined": 0.3}.get(name, True)
+                "isEmergencyStopped": False, "getSpeedScalingCombined": 0.3,
+                "getActualCurrent": [2.0, 4.0, 1.0, 0.5, 0.0, 0.0],
+                "getTargetCurrent": [2.0, 3.0, 1.0, 0.05, 0.0, 0.0],
+                "getTargetMoment": [20.0, 30.0, 12.0, 0.3, 0.0, 0.0]}.get(name, True)
 
     def __getattr__(self, name: str) -> Any:
         return lambda *args: self._answer(name, *args)
@@ -82,6 +86,9 @@ def test_wrapper_maps_state_and_commands(fake_ur_rtde: dict[str, Recorder]) -> N
     assert state.connected and state.q == (0.1,) * 6
     assert state.robot_mode == RobotMode.RUNNING and state.safety_mode == SafetyMode.NORMAL
     assert state.speed_scaling == 0.3
+    # τ = i_actual · (τ_target / i_target) where |i_target| ≥ 0.1 A, nan before a first such one
+    assert state.effort[:3] == (20.0, 40.0, 12.0)
+    assert all(math.isnan(x) for x in state.effort[3:])
     assert arm.speed_j([0.1] * 6, 2.0, 0.01)
     assert ("speedJ", ([0.1] * 6, 2.0, 0.01)) in fake_ur_rtde["rtde_control"].calls
     assert arm.speed_stop(4.0) and arm.set_watchdog(10.0) and arm.kick_watchdog()

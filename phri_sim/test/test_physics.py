@@ -245,3 +245,27 @@ def test_coarser_step_keeps_the_contact_force() -> None:
         start_scenario(sim, SCENARIOS["waltz"])
         forces.append(np.mean(_hold_robot(sim, 0.5)))
     assert forces[1] == pytest.approx(forces[0], rel=0.03)
+
+
+def test_the_torso_has_no_gap_a_link_could_enter() -> None:
+    """Waist, abdomen and chest cover the trunk's height with no gap wider than 2 cm (the
+    UR16e's thinnest links, the wrists, are ≈ 9 cm across): the vertical extents of its geoms
+    (centre ± radius). With a 19 cm gap between waist and chest a robot link the partner walked
+    into was squeezed between the two capsules of one rigid body (kilonewtons on a standing
+    robot). (The neck, between chest and head, is above every arm link in the scenarios.)"""
+    trunk = [g for g in TORSO.geoms if g.name != "person_head"]
+    spans = sorted((g.pos[2] - g.size[0], g.pos[2] + g.size[0]) for g in trunk)
+    top = spans[0][1]
+    for low, high in spans[1:]:
+        assert low - top < 0.02, f"gap in the torso from {top:.3f} to {low:.3f} m"
+        top = max(top, high)
+
+
+def test_the_abdomen_changes_nothing_but_collisions() -> None:
+    """The abdomen is massless: the torso's mass (and so its dynamics) is what it was."""
+    sim = _quiet_sim()
+    body = sim.model.body("person_torso").id
+    tissue = TORSO.tissue
+    assert tissue is not None
+    assert sim.model.body_mass[body] == pytest.approx(TORSO.mass - tissue.mass)
+    assert sim.model.geom_rgba[sim.model.geom("person_abdomen").id][3] == 1.0

@@ -199,12 +199,3 @@ class InputFreshness:
 __all__ = ["NEVER", "REASONS", "STALE_CONTACTS", "STALE_JOINTS", "STALE_ODOMETRY",
            "FreshnessConfig", "InputFreshness", "Verdict", "within"]
 
-
-def freshness_config(values: Mapping[str, object]) -> FreshnessConfig:
-    """The input timeouts [s] from the node's parameter values (``contact_timeout``,
-    ``joint_state_timeout``, ``odom_timeout``)."""
-    return FreshnessConfig(
-        contact_timeout=float(values["contact_timeout"]),  # type: ignore[arg-type]
-        joint_state_timeout=float(values["joint_state_timeout"]),  # type: ignore[arg-type]
-        odom_timeout=float(values["odom_timeout"]),  # type: ignore[arg-type]
-    )

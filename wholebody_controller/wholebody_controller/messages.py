@@ -47,6 +47,7 @@ from wholebody_controller.contact_task import (
 from wholebody_controller.input_checks import InputError
 from wholebody_controller.safe_stop import SafeStop
 from wholebody_controller.tasks import ContactTask
+from wholebody_controller.torque_guard import GuardReport, GuardState
 
 Array = NDArray[np.float64]
 
@@ -265,6 +266,32 @@ def safety_status(task: ContactTask, safety: Safety, node_name: str) -> Diagnost
     return DiagnosticStatus(
         level=level, name=f"{node_name}: contact safety {task.link}", message=message,
         hardware_id=task.link, values=[KeyValue(key=k, value=v) for k, v in values.items()])
+
+
+def unsensed_status(node_name: str, report: GuardReport) -> DiagnosticStatus:
+    """The guard against contacts no skin feels (:mod:`~wholebody_controller.torque_guard`) as a
+    diagnostic status: ERROR while it stops the robot, WARN while slowing or while an arm joint
+    reports no effort (unguarded), OK otherwise; values: the state, the worst joint's
+    unexplained torque and limit [N·m], the ratio, stops, and τ_ext and the skin's share per
+    joint [N·m]."""
+    level, message = DiagnosticStatus.OK, "no unsensed contact"
+    if not report.sensed:
+        level, message = DiagnosticStatus.WARN, "no joint efforts: unsensed contacts unguarded"
+    if report.state is GuardState.SLOWING:
+        level = DiagnosticStatus.WARN
+        message = f"unsensed contact at {report.joint}: slowing (×{report.scale:.2f})"
+    elif report.state is GuardState.STOPPED:
+        level = DiagnosticStatus.ERROR
+        message = f"unsensed contact at {report.joint}: stopped, backing off"
+    values = {"state": report.state.name, "joint": report.joint,
+              "unexplained_torque_Nm": f"{report.torque:.2f}", "limit_Nm": f"{report.limit:g}",
+              "ratio": f"{report.ratio:.3f}", "peak_ratio": f"{report.peak_ratio:.3f}",
+              "stops": str(report.stops), "slowed_cycles": str(report.slowed),
+              "external_torque_Nm": " ".join(f"{v:.2f}" for v in report.external),
+              "skin_torque_Nm": " ".join(f"{v:.2f}" for v in report.skin)}
+    return DiagnosticStatus(
+        level=level, name=f"{node_name}: unsensed contact", message=message,
+        hardware_id=node_name, values=[KeyValue(key=k, value=v) for k, v in values.items()])
 
 
 def loop_status(node_name: str, mode: str, loop: PeriodicThread | None,

@@ -54,7 +54,7 @@ from std_srvs.srv import Trigger
 from phri_common.cdr import (
     CdrError,
     Float64ArrayEncoder,
-    joint_state_from_cdr,
+    joint_state_arrays_from_cdr,
     odometry_pose_from_cdr,
     twist_to_cdr,
 )
@@ -69,7 +69,7 @@ from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
 from wholebody_controller.contact_safety import Safety
 from wholebody_controller.controller import KinematicsModel, WholeBodyController
-from wholebody_controller.freshness import InputFreshness, freshness_config
+from wholebody_controller.freshness import InputFreshness
 from wholebody_controller.input_checks import (
     InputError,
     check_contact_force,
@@ -88,19 +88,23 @@ from wholebody_controller.messages import (
     speed_scaling_fraction,
     speed_scaling_status,
     task_state_to_msg,
+    unsensed_status,
 )
 from wholebody_controller.parameters import (
     GLOBAL_PARAMS,
     LINKS_PARAM,
     config_from_values,
     control_loop_mode,
+    freshness_config,
     iso_overrides,
     link_param_specs,
+    torque_guard_config,
 )
 from wholebody_controller.qos import CONTACT_QOS, SCALING_QOS
 from wholebody_controller.qp import QPError
 from wholebody_controller.safe_stop import SafeStop
 from wholebody_controller.speed_scaling import ARM_COMMAND_SLICES, ScalingGate, scale_to_slowest
+from wholebody_controller.torque_guard import TorqueWatch
 
 
 class WholeBodyControllerNode(Node):
@@ -197,6 +201,8 @@ class WholeBodyControllerNode(Node):
     def _create_interfaces(self, direct_state_inputs: bool) -> None:
         """Publishers, subscriptions (no state topics for ``direct_state_inputs``), services and
         timers (see the module docstring)."""
+        self.torque_watch = TorqueWatch(torque_guard_config(self.params),  # contacts no skin feels
+                                        self.kinematics.position_limits)
         # Commands are published as serialized bytes (phri_common.cdr): same messages, without
         # building three message objects per cycle.
         self._arm_encoders = (Float64ArrayEncoder(",".join(self.left_joints), 6),
@@ -263,6 +269,7 @@ class WholeBodyControllerNode(Node):
             with self.cycle_lock:
                 self.controller.configure(config)
                 self.freshness.config = timeouts
+                self.torque_watch.config = torque_guard_config(values)
 
     # -- inputs ---------------------------------------------------------------------------------
     def now_s(self) -> float:
@@ -323,7 +330,7 @@ class WholeBodyControllerNode(Node):
     def on_joints_bytes(self, data: bytes) -> None:
         """A serialized joint state (the subscription's path)."""
         try:
-            decoded = joint_state_from_cdr(data)
+            decoded = joint_state_arrays_from_cdr(data)
         except CdrError as err:
             self._refuse("joint state", err)
             self.freshness.joints_refused(set(self.arm_joints))  # F9: names unreadable
@@ -335,10 +342,12 @@ class WholeBodyControllerNode(Node):
 
     def on_joints(self, msg: JointState) -> None:
         """A joint state message."""
-        self.take_joints(msg.name, msg.position)
+        self.take_joints(msg.name, msg.position, msg.velocity, msg.effort)
 
-    def take_joints(self, names: Sequence[str], position: Sequence[float]) -> None:
-        """Check a joint state's names and positions [rad] and keep them (or refuse them)."""
+    def take_joints(self, names: Sequence[str], position: Sequence[float],
+                    velocity: Sequence[float] = (), effort: Sequence[float] = ()) -> None:
+        """Check a joint state's names and positions [rad] and keep them (or refuse them); its
+        velocities [rad/s] and efforts [N·m] go to the external-torque estimate."""
         try:
             positions = positions_by_name(names, position)
             check_joint_positions(positions, self.joint_limits,
@@ -351,6 +360,7 @@ class WholeBodyControllerNode(Node):
             if name in positions:
                 self.arm_q[i] = positions[name]
         self.freshness.joints_arrived(positions.keys(), self.now_s())
+        self.torque_watch.estimator.joints(self.now_s(), names, position, velocity, effort)
 
     def on_odom_bytes(self, data: bytes) -> None:
         """Serialized odometry (the subscription's path)."""
@@ -387,6 +397,7 @@ class WholeBodyControllerNode(Node):
             return
         self.base_q = base
         self.freshness.odom_arrived(self.now_s())
+        self.torque_watch.estimator.base(self.now_s(), base)
 
     def on_speed_scaling_bytes(self, arm: str, data: bytes) -> None:
         """A serialized speed scaling of ``arm`` (std_msgs/Float64, percent); unreadable bytes
@@ -530,7 +541,11 @@ class WholeBodyControllerNode(Node):
             self.publish_zero()
             return
         self._track_safety(result.tasks)
-        self.publish_command(scale_to_slowest(result.command, self.speed_scaling))
+        command = self.torque_watch.apply(self.controller, now_ns * 1e-9, result.command, q,
+                                          self.contacts)  # contacts no skin feels
+        if self.torque_watch.changed:
+            self.publish_diagnostics()
+        self.publish_command(scale_to_slowest(command, self.speed_scaling))
         frame = str(self.params["world_frame"])
         for i, task in enumerate(result.tasks):
             pub = self.state_pubs[task.link]
@@ -574,6 +589,7 @@ class WholeBodyControllerNode(Node):
         statuses.append(speed_scaling_status(name, scaling,
                                              float(self.params["min_speed_scaling"])))
         statuses.append(safe_stop_status(name, self.safe_stop))
+        statuses.append(unsensed_status(name, self.torque_watch.report))
         msg = DiagnosticArray(status=statuses)
         msg.header.stamp = ns_to_stamp(self.clock_ns())
         self.diag_pub.publish(msg)

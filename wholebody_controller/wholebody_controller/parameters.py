@@ -24,6 +24,8 @@ from wholebody_controller.config import (
     default_force_limits,
 )
 from wholebody_controller.contact_safety import SafetyConfig
+from wholebody_controller.freshness import FreshnessConfig
+from wholebody_controller.torque_guard import TorqueGuardConfig
 
 LINKS_PARAM = ParamSpec(
     "links", list(SKIN_LINKS),
@@ -103,10 +105,11 @@ NODE_PARAMS: list[ParamSpec] = [
 """The node's own parameters (inputs, timeouts, the control loop, the dance band)."""
 
 GLOBAL_PARAMS: list[ParamSpec] = [
-    *settings_of(ControllerConfig), *settings_of(SafetyConfig), *NODE_PARAMS]
+    *settings_of(ControllerConfig), *settings_of(SafetyConfig), *NODE_PARAMS,
+    *settings_of(TorqueGuardConfig)]
 """Every controller-wide parameter: the controller's and the contact safety's settings (each
-declared once, as a field of :class:`ControllerConfig` / :class:`SafetyConfig`), then the
-node's own."""
+declared once, as a field of :class:`ControllerConfig` / :class:`SafetyConfig`), the node's own,
+then the guard's against unsensed contacts (:class:`TorqueGuardConfig`)."""
 
 LINK_SUFFIXES: tuple[str, ...] = (
     "inertia", "damping", "stiffness", "priority_lock", "desired_force", "force_limit",
@@ -228,3 +231,17 @@ def config_from_values(
         safety=SafetyConfig(**values_for(SafetyConfig, values)),
         **values_for(ControllerConfig, values),
     )
+
+
+def freshness_config(values: Mapping[str, Any]) -> FreshnessConfig:
+    """The input timeouts [s] from the node's parameter values."""
+    return FreshnessConfig(
+        contact_timeout=float(values["contact_timeout"]),
+        joint_state_timeout=float(values["joint_state_timeout"]),
+        odom_timeout=float(values["odom_timeout"]),
+    )
+
+
+def torque_guard_config(values: Mapping[str, Any]) -> TorqueGuardConfig:
+    """The guard against unsensed contacts from the node's parameter values."""
+    return TorqueGuardConfig(**values_for(TorqueGuardConfig, values))

@@ -38,6 +38,7 @@ SUSTAINED_WINDOW = 0.5
 
 PERSON_PART_REGIONS: dict[str, str] = {
     "person_waist": "abdomen",
+    "person_abdomen": "abdomen",
     "person_chest": "chest",
     "person_head": "skull_forehead",
     "person_left_hand": "hand_finger",

@@ -1,8 +1,12 @@
 """ROS 2 bridge: the simulation behind the same topics as the real robot (thin node).
 
-Publishes ``/joint_states``, ``/odom``, ``/clock`` and ``skin/<patch>/taxels``; subscribes
-``/cmd_vel`` and ``<arm>/forward_velocity_controller/commands`` through the simulation's command
-watchdog; publishes ground truth under ``sim/``. Two modes:
+Publishes ``/joint_states`` (positions, velocities and the drives' efforts), ``/odom``,
+``/clock`` and ``skin/<patch>/taxels``; subscribes ``/cmd_vel`` and
+``<arm>/forward_velocity_controller/commands`` through the simulation's command watchdog;
+publishes ground truth under ``sim/``, and each arm's state on ``/diagnostics`` as phri_hardware's
+arm bridge does (:mod:`phri_sim.ros.arm_status`: the arms' own protective stop,
+:mod:`phri_sim.world.protective_stop`), with ``sim/<arm>/unlock_protective_stop`` (the
+operator's unlock). Two modes:
 
 * free-running (``lockstep: false``): a wall-clock timer advances the simulation by one control
   period per tick, ``real_time_factor`` times faster than real time;
@@ -22,6 +26,7 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import (
     Point,
     PointStamped,
@@ -38,6 +43,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Float64MultiArray, Header
+from std_srvs.srv import Trigger
 
 from phri_common import paper
 from phri_common.params import ParamSpec, ParamValue
@@ -47,7 +53,9 @@ from phri_common.ros_main import run_nodes
 from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
 from phri_common.taxels import TaxelCloudEncoder
+from phri_sim.ros.arm_status import arm_status
 from phri_sim.scenarios.catalogue import Q_HOME, SCENARIOS, Scenario, Script, start_scenario
+from phri_sim.world.protective_stop import ProtectiveStopConfig
 from phri_sim.world.sensor_faults import DEFAULT_FAULT_TIME, FAULT_KINDS, FaultSpec, SensorFaults
 from phri_sim.world.shove import Shove, ShoveSpec
 from phri_sim.world.simulation import ARM_JOINTS, CommandError, SimConfig, Simulation
@@ -114,6 +122,9 @@ PARAMS: list[ParamSpec] = [
               ":force], e.g. 250N@20s+3s ('' = none; docs: Shove)", read_only=True),
     ParamSpec("fault_time", DEFAULT_FAULT_TIME, "sim time from which the fault acts",
               unit="s", low=0.0, high=1e6, read_only=True),
+    ParamSpec("protective_stop", True, "the arms' own protective stop, as a UR16e's safety "
+              "system does it (docs: Protective stop); false: arms that never stop themselves "
+              "(comparisons only)", read_only=True),
 ]
 
 SENSOR_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
@@ -164,6 +175,7 @@ def sim_config(values: dict[str, ParamValue]) -> SimConfig:
         command_timeout=float(values["command_timeout"]),
         seed=int(values["seed"]),
         timestep=float(values["physics_timestep"]),
+        protective_stop=ProtectiveStopConfig(enabled=bool(values["protective_stop"])),
     )
 
 
@@ -196,19 +208,24 @@ def _doubles(values: np.ndarray) -> array.array[float]:
     return out
 
 
-def fill_joint_state(msg: JointState, q: np.ndarray, qd: np.ndarray, stamp_ns: int) -> None:
-    """Write positions [rad] or [m], velocities [rad/s] or [m/s] and the stamp into a
-    JointState whose names are set."""
+def fill_joint_state(msg: JointState, q: np.ndarray, qd: np.ndarray, stamp_ns: int,
+                     effort: np.ndarray | None = None) -> None:
+    """Write positions [rad] or [m], velocities [rad/s] or [m/s], efforts [N·m] or [N] (when
+    given; :meth:`SimRobot.efforts <phri_sim.world.robot.SimRobot.efforts>`) and the stamp into
+    a JointState whose names are set."""
     msg.header.stamp = ns_to_stamp(stamp_ns)
     msg.position = _doubles(q)
     msg.velocity = _doubles(qd)
+    if effort is not None:
+        msg.effort = _doubles(effort)
 
 
-def joint_state_msg(names: tuple[str, ...], q: np.ndarray, qd: np.ndarray, stamp_ns: int
-                    ) -> JointState:
-    """JointState of ``names`` (positions [rad] or [m], velocities [rad/s] or [m/s])."""
+def joint_state_msg(names: tuple[str, ...], q: np.ndarray, qd: np.ndarray, stamp_ns: int,
+                    effort: np.ndarray | None = None) -> JointState:
+    """JointState of ``names`` (positions [rad] or [m], velocities [rad/s] or [m/s], efforts
+    [N·m] or [N] when given)."""
     msg = JointState(name=list(names))
-    fill_joint_state(msg, q, qd, stamp_ns)
+    fill_joint_state(msg, q, qd, stamp_ns, effort)
     return msg
 
 
@@ -299,6 +316,8 @@ class SimBridgeNode(Node):
         gt_rate = float(v["ground_truth_rate_hz"])
         self._truth_every = 0 if gt_rate <= 0 else max(1, round(1.0 / (gt_rate * self.sim.dt)))
         self.step_count = 0
+        self._effort_sum = np.zeros(len(self.sim.joint_names))
+        self._effort_steps = 0
         self.commands_received = dict.fromkeys(("base", "left", "right"), 0)
         self.commands_refused = 0
 
@@ -353,6 +372,12 @@ class SimBridgeNode(Node):
             for link in self.sim.skin_links
         }
         self.person_pub = self.create_publisher(PoseArray, "sim/person/poses", 10)
+        self.diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self._arm_phases: dict[str, str] = {}
+        self._diag_due = 0.0
+        for side in ARM_TOPICS:
+            self.create_service(Trigger, f"sim/{side}/unlock_protective_stop",
+                                self._unlock_service(side))
         self.create_subscription(Twist, "/cmd_vel", self._on_cmd_vel, 10)
         for side, topic in ARM_TOPICS.items():
             self.create_subscription(
@@ -399,6 +424,8 @@ class SimBridgeNode(Node):
             if i % self.steps_per_period == 0:
                 self.shove.apply(self.sim, self.sim.time)
             self.sim.step()
+            self._effort_sum += self.sim.robot.efforts()
+            self._effort_steps += 1
             self.step_count += 1
             n = self.step_count
             if n % self._skin_every == 0:
@@ -407,6 +434,7 @@ class SimBridgeNode(Node):
                 self.publish_ground_truth()
             if n % self._state_every == 0:
                 self.publish_state()
+        self.publish_arm_status()
         if clock:
             self.publish_clock()
         if self.viewer is not None:
@@ -414,6 +442,33 @@ class SimBridgeNode(Node):
 
     def _tick(self) -> None:
         self.advance()
+
+    # -- the arms' protective stops ---------------------------------------------------------------
+    def publish_arm_status(self, force: bool = False) -> None:
+        """Each arm's state on /diagnostics (:mod:`phri_sim.ros.arm_status`) at once when an
+        arm's protective-stop phase changed, else once per simulated second."""
+        stop = self.sim.robot.protective_stop
+        statuses = {side: stop.status(side) for side in ARM_TOPICS}
+        phases = {side: st.phase for side, st in statuses.items()}
+        now = self.sim.time
+        if not force and phases == self._arm_phases and now < self._diag_due:
+            return
+        self._arm_phases, self._diag_due = phases, now + 1.0
+        rearm = stop.config.rearm_velocity
+        msg = DiagnosticArray(status=[arm_status(side, st, rearm)
+                                      for side, st in statuses.items()])
+        msg.header.stamp = ns_to_stamp(self.stamp_ns)
+        self.diag_pub.publish(msg)
+
+    def _unlock_service(self, side: str) -> Callable[[Trigger.Request, Trigger.Response],
+                                                     Trigger.Response]:
+        return lambda _req, res: self._unlock(side, res)
+
+    def _unlock(self, side: str, res: Trigger.Response) -> Trigger.Response:
+        """``sim/<arm>/unlock_protective_stop``: the operator's unlock (refused within 5 s)."""
+        res.success, res.message = self.sim.robot.protective_stop.unlock(side)
+        self.publish_arm_status(force=True)
+        return res
 
     # -- publishing -----------------------------------------------------------------------------
     def publish_all(self, clock: bool) -> None:
@@ -437,7 +492,7 @@ class SimBridgeNode(Node):
         positions = np.concatenate([q[:3], self.faults.joints(q[3:], self.fault_clock)])
         # One message of each, refilled: publish() serialises it at once.
         joints, odom = self._joint_msg, self._odom_msg
-        fill_joint_state(joints, positions, qd, stamp)
+        fill_joint_state(joints, positions, qd, stamp, self._mean_efforts())
         fill_odometry(odom, q[:3], self.sim.base_twist(), stamp)
         for on_joints, on_odom in self._state_listeners:
             on_joints(joints)
@@ -447,6 +502,18 @@ class SimBridgeNode(Node):
             self.joint_pub.publish(joints)
         if not direct or self.odom_pub.get_subscription_count() > 0:
             self.odom_pub.publish(odom)
+
+    def _mean_efforts(self) -> np.ndarray:
+        """The drives' efforts averaged over the physics steps since the last joint state (a
+        drive's current is filtered, not sampled; the mean force over a state period is what
+        the change of velocity over it needs, so a reader differencing velocities finds the
+        two consistent); the present ones before the first step [N, N·m]."""
+        if self._effort_steps == 0:
+            return self.sim.robot.efforts()
+        mean = self._effort_sum / self._effort_steps
+        self._effort_sum = np.zeros_like(self._effort_sum)
+        self._effort_steps = 0
+        return mean
 
     def sample_skin(self, *, publish: bool = True) -> None:
         """One skin sample of every patch due (below); publish the newest reading of each

@@ -106,6 +106,8 @@ class RunOptions:
         fault_value: the fault's factor / noise / value (0 = the kind's default).
         shove: the partner's shove, ``FORCE N@TIME s+DURATION s[:kind]`` ('' = none;
             :mod:`phri_sim.world.shove`).
+        protective_stop: the arms' own protective stop (false: arms that never stop
+            themselves, for comparisons; bridge parameter ``protective_stop``).
     """
 
     duration: float | None = None
@@ -125,6 +127,7 @@ class RunOptions:
     fault_patch: str = ""
     fault_value: float = 0.0
     shove: str = ""
+    protective_stop: bool = True
 
     def __post_init__(self) -> None:
         for name, allowed in (("fidelity", tuple(FIDELITIES)), ("controller", CONTROLLERS),
@@ -153,4 +156,5 @@ class RunOptions:
             "skin_driver": self.skin_driver, "fault": self.fault,
             "fault_time": float(self.fault_time), "fault_patch": self.fault_patch,
             "fault_value": float(self.fault_value), "shove": self.shove,
+            "protective_stop": self.protective_stop,
         }

@@ -21,16 +21,21 @@ and y) with a spring K_t [N/m] and a damper D_t [N·s/m], so the waist contact b
 known linear compliance (10 N compresses it by 10 / K_t) whatever the robot's effective mass.
 The damper is set at or above critical damping for the layer's mass, so the layer does not ring.
 
-Parts (names are the MuJoCo body names; geoms are ``<part>`` and, for the torso, ``person_waist``
-and ``person_chest``):
+Parts (names are the MuJoCo body names; geoms are ``<part>`` and, for the torso, ``person_waist``,
+``person_abdomen``, ``person_chest`` and ``person_head``):
 
 * ``person_torso``: the dancer's torso. Body frame: x the facing direction, y to the dancer's
   left, z up (the torso's yaw is the dancer's heading). The waist (what the robot's left forearm
   holds in the waltz) is a horizontal capsule along y — a stadium cross-section
   :data:`WAIST_WIDTH` × :data:`WAIST_DEPTH` (0.30 × 0.20 m) whose flat back lies along the
   forearm, so a turn of the dancer against the forearm shifts the pressure to one end of the
-  back (the lead a round waist cannot give); above it a chest (horizontal capsule, 0.36 × 0.22 m)
-  and a head (sphere).
+  back (the lead a round waist cannot give); above it the abdomen (horizontal capsule, its back
+  3 cm in front of the waist's), a chest (horizontal capsule, 0.36 × 0.22 m) and a head (sphere).
+  The abdomen fills what would otherwise be a 19 cm gap between waist and chest: without it a
+  robot wrist or upper arm the partner walked into entered the gap and was squeezed between the
+  waist and the chest capsules of the one rigid body, the solver pushing both out of the link —
+  4–12 kN of contact force on a motionless robot in the `tempo` waltz, a hole no person has.
+  It is massless (collision only), so the torso's mass and inertia are what they were.
 A person who stops pushing. The spring–damper alone is a partner who never notices a robot
 that has stopped: with the target dancing on, K_lin·(p_target − p) grows without bound (a 30 s
 skin fault in the 186.5 s waltz, robot stopped: 128 N held on the waist; the `tempo` partner
@@ -70,6 +75,7 @@ class GeomSpec:
         pos: centre in the body frame [m].
         rgba: display colour.
         axis: the body axis a capsule lies along.
+        massless: the geom only collides; the part's mass is spread over its other geoms.
     """
 
     name: str
@@ -78,6 +84,7 @@ class GeomSpec:
     pos: tuple[float, float, float] = (0.0, 0.0, 0.0)
     rgba: tuple[float, float, float, float] = (0.85, 0.65, 0.55, 1.0)
     axis: Axis = "z"
+    massless: bool = False
 
 
 @dataclass(frozen=True)
@@ -178,11 +185,23 @@ band 1 %); K_ψ = 3 conforms the first 8° away (no lead below, 10–13° headin
 K_ψ = 10 leads from 3° on (first 45 s of the waltz: heading drift 7.9° max, 4.7° RMS), K_ψ = 20
 (the value here) 5.8° max, 3.8° RMS."""
 
+ABDOMEN_RADIUS = 0.085
+"""Radius of the abdomen capsule between the waist and the chest [m]."""
+ABDOMEN_HEIGHT = 0.20
+"""Height of the abdomen capsule's axis above the waist centre [m]: it spans 0.115–0.285 m, so
+between the waist (to 0.10) and the chest (from 0.29) no gap is left that a link could enter."""
+ABDOMEN_FORWARD = 0.015
+"""Forward offset of the abdomen capsule [m]: its back lies 3 cm in front of the waist's flat
+back (the lumbar curve), clear of a forearm held across the waist."""
+
 TORSO = BodyPartSpec(
     name="person_torso",
     geoms=(
         GeomSpec("person_waist", "capsule", (WAIST_RADIUS, WAIST_HALF_LENGTH), (0.0, 0.0, 0.0),
                  axis="y"),
+        GeomSpec("person_abdomen", "capsule", (ABDOMEN_RADIUS, 0.07),
+                 (ABDOMEN_FORWARD, 0.0, ABDOMEN_HEIGHT), (0.80, 0.62, 0.52, 1.0), axis="y",
+                 massless=True),
         GeomSpec("person_chest", "capsule", (0.11, 0.07), (0.0, 0.0, 0.40),
                  (0.35, 0.45, 0.70, 1.0), axis="y"),
         GeomSpec("person_head", "sphere", (0.10,), (0.0, 0.0, 0.72)),

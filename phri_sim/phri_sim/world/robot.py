@@ -6,7 +6,14 @@ velocity servos on its three planar joints, whose set points are the world rates
 
     ẋ = cos(yaw) v_x − sin(yaw) v_y,   ẏ = sin(yaw) v_x + cos(yaw) v_y,   ẏaw = ω_z
 
-and each arm joint follows its commanded velocity through a stiff velocity servo (scene.py).
+and each arm joint follows its commanded velocity through a stiff velocity servo (scene.py),
+through the arm's own protective stop (:mod:`~phri_sim.world.protective_stop`: the UR stops itself
+on a collision, whatever link it is on).
+
+Efforts (:meth:`SimRobot.efforts`): what each drive applies, as ``/joint_states`` ``effort``
+carries it — the base servos' force along odom x, y [N] and torque about the vertical [N·m], and
+each arm joint's servo torque plus the gravity torque its drive carries [N·m] (the arm is
+gravity-compensated in the model; a real UR's drive carries it, and RTDE's torques include it).
 """
 
 from __future__ import annotations
@@ -17,6 +24,7 @@ from numpy.typing import NDArray
 
 from phri_common.planar import base_to_world, world_to_base
 from phri_description.description import JOINT_NAMES, RobotDescription
+from phri_sim.world.protective_stop import ProtectiveStop, ProtectiveStopConfig, servo_forces
 from phri_sim.world.scene import ACTUATOR_SUFFIX
 
 FloatArray = NDArray[np.float64]
@@ -38,7 +46,9 @@ class SimRobot:
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData,
-                 description: RobotDescription) -> None:
+                 description: RobotDescription,
+                 protective_stop: ProtectiveStopConfig | None = None) -> None:
+        """``protective_stop``: the arms' UR safety settings (``None``: the defaults)."""
         self.model, self.data = model, data
         self.joint_names = JOINT_NAMES
         self._qpos = np.array([model.jnt_qposadr[model.joint(n).id] for n in JOINT_NAMES])
@@ -47,6 +57,10 @@ class SimRobot:
         self._yaw_qpos = int(self._qpos[2])
         self._act_x, self._act_y = int(act[0]), int(act[1])
         self._act_rest = act[2:]
+        self._act_yaw, self._act_arms = int(act[2]), act[3:]
+        self._acts = act
+        self.protective_stop = ProtectiveStop(model, data, ARM_JOINTS, protective_stop)
+        """Both arms' protective stops (the UR's own safety system)."""
         self.position_limits = description.position_limits()
         self.velocity_limits = description.velocity_limits()
 
@@ -90,4 +104,15 @@ class SimRobot:
         yaw = float(d.qpos[self._yaw_qpos])
         ctrl = d.ctrl
         ctrl[self._act_x], ctrl[self._act_y] = base_to_world(yaw, float(u[0]), float(u[1]))
-        ctrl[self._act_rest] = u[2:]
+        ctrl[self._act_yaw] = u[2]
+        stop = self.protective_stop
+        ctrl[self._act_arms] = np.concatenate([stop.filter(side, u[3 + 6 * i : 9 + 6 * i])
+                                               for i, side in enumerate(ARM_SIDES)])
+
+    def efforts(self) -> FloatArray:
+        """What each drive applied over the last physics step (15; module docstring): base x, y
+        [N], yaw [N·m], then the arm joints [N·m], gravity included (the servos' forces:
+        :func:`~phri_sim.world.protective_stop.servo_forces`)."""
+        out = servo_forces(self.model, self.data, self._acts, self._dofs)
+        out[3:] += self.data.qfrc_gravcomp[self._dofs[3:]]
+        return out

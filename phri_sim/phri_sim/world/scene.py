@@ -118,8 +118,9 @@ _AXIS_QUAT: dict[str, tuple[float, float, float, float]] = {
 
 
 def _add_geoms(body: mujoco.MjsBody, geoms: list[GeomSpec], mass: float) -> None:
-    """Add the part's geoms to ``body`` with ``mass`` [kg] spread by volume (uniform density)."""
-    volume = sum(_capsule_or_sphere_volume(g) for g in geoms)
+    """Add the part's geoms to ``body`` with ``mass`` [kg] spread by volume (uniform density)
+    over the geoms that are not massless."""
+    volume = sum(_capsule_or_sphere_volume(g) for g in geoms if not g.massless)
     for g in geoms:
         geom = body.add_geom()
         geom.name = g.name
@@ -139,7 +140,7 @@ def _add_geoms(body: mujoco.MjsBody, geoms: list[GeomSpec], mass: float) -> None
         geom.priority = PERSON_PRIORITY
         geom.solref = np.array(PERSON_SOLREF)
         geom.solimp = np.array(PERSON_SOLIMP)
-        geom.density = mass / volume
+        geom.density = 0.0 if g.massless else mass / volume
 
 
 def _add_part(spec: mujoco.MjSpec, part: BodyPartSpec) -> None:

@@ -37,6 +37,7 @@ from phri_description.description import robot_description
 from phri_sim.world.command_watchdog import CommandError, CommandWatchdog
 from phri_sim.world.person_body import PERSON_PARTS, BodyPartSpec, PartTarget
 from phri_sim.world.person_drive import SimPerson
+from phri_sim.world.protective_stop import ProtectiveStopConfig
 from phri_sim.world.robot import ARM_JOINTS, SimRobot
 from phri_sim.world.scene import scene_spec
 from phri_sim.world.skin_contacts import LinkGroundTruth, SimSkins
@@ -70,6 +71,9 @@ class SimConfig:
     servos and the joint dampers are integrated implicitly and the softest contact time constant
     is 20 ms, and every scenario's metrics agree with the 2 ms run (docs/phri_sim.md)."""
 
+    protective_stop: ProtectiveStopConfig = field(default_factory=ProtectiveStopConfig)
+    """The arms' own protective stop (:mod:`phri_sim.world.protective_stop`)."""
+
     def __post_init__(self) -> None:
         if self.timestep is not None and not (
             math.isfinite(self.timestep) and MIN_TIMESTEP <= self.timestep <= MAX_TIMESTEP
@@ -98,7 +102,7 @@ class Simulation:
         self.data = mujoco.MjData(self.model)
         self.dt = float(self.model.opt.timestep)
         desc = robot_description()
-        self.robot = SimRobot(self.model, self.data, desc)
+        self.robot = SimRobot(self.model, self.data, desc, self.config.protective_stop)
         self.person = SimPerson(self.model, self.data, parts)
         self.skins = SimSkins(self.model, self.data, desc.patches, self.config.skin,
                               self.config.seed, self.person.geom_part, self.robot)
@@ -128,6 +132,7 @@ class Simulation:
         self.skins.reset_noise()
         mujoco.mj_forward(self.model, self.data)
         self.skins.invalidate()
+        self.robot.protective_stop.reset()
 
     def settle(self, seconds: float) -> None:
         """Let the person come to rest against the robot before a run: step ``seconds`` [s]
@@ -149,6 +154,7 @@ class Simulation:
         self.watchdog = self._new_watchdog()
         mujoco.mj_forward(self.model, self.data)
         self.skins.invalidate()
+        self.robot.protective_stop.reset()  # what the pinned settling looked like is no collision
 
     # -- stepping ------------------------------------------------------------------------------
     def command(self, channel: str, values: FloatArray) -> None:
