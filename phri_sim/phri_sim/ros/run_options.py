@@ -13,6 +13,7 @@ from typing import Any
 
 from phri_common import paper
 from phri_sim.scenarios.catalogue import Scenario
+from phri_sim.world.actuators import DEFAULT_PLANT, PLANTS
 from phri_sim.world.sensor_faults import DEFAULT_FAULT_TIME
 
 SKIN_RATE_HZ = 100.0
@@ -102,6 +103,10 @@ class RunOptions:
         viewer: open the MuJoCo viewer (needs a display).
         fault: sensor fault to inject ('' = none; the bridge checks the kind).
         fault_time: sim time the fault starts [s].
+        plant: what stands between the commands and the simulated robot, a key of
+            :data:`phri_sim.world.actuators.PLANTS` (``realistic``: the drives' latency, ramps
+            and lag, the skin driver's moving average; ``ideal``: none; docs/phri_sim.md,
+            "Plant").
     """
 
     duration: float | None = None
@@ -118,10 +123,11 @@ class RunOptions:
     viewer: bool = False
     fault: str = ""
     fault_time: float = DEFAULT_FAULT_TIME
+    plant: str = DEFAULT_PLANT
 
     def __post_init__(self) -> None:
         for name, allowed in (("fidelity", tuple(FIDELITIES)), ("controller", CONTROLLERS),
-                              ("sensor_transport", SENSOR_TRANSPORTS)):
+                              ("sensor_transport", SENSOR_TRANSPORTS), ("plant", tuple(PLANTS))):
             value = getattr(self, name)
             if value not in allowed:
                 raise ValueError(f"{name} must be one of {', '.join(allowed)}, got {value!r}")
@@ -144,5 +150,5 @@ class RunOptions:
             "taxel_publish_rate_hz": _given(self.taxel_publish_rate_hz,
                                             fid.taxel_publish_rate_hz),
             "skin_driver": self.skin_driver, "fault": self.fault,
-            "fault_time": float(self.fault_time),
+            "fault_time": float(self.fault_time), "plant": self.plant,
         }

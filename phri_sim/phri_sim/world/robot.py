@@ -6,10 +6,14 @@ velocity servos on its three planar joints, whose set points are the world rates
 
     ẋ = cos(yaw) v_x − sin(yaw) v_y,   ẏ = sin(yaw) v_x + cos(yaw) v_y,   ẏaw = ω_z
 
-and each arm joint follows its commanded velocity through a stiff velocity servo (scene.py).
+and each arm joint follows its commanded velocity through a stiff velocity servo (scene.py). Between
+the command and the servos sits :attr:`SimRobot.shaper` when set: the plant's drives
+(:class:`phri_sim.world.actuators.CommandShaper`: latency, ramps, lag), one call per physics step.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import mujoco
 import numpy as np
@@ -49,6 +53,10 @@ class SimRobot:
         self._act_rest = act[2:]
         self.position_limits = description.position_limits()
         self.velocity_limits = description.velocity_limits()
+        self.shaper: Callable[[FloatArray], FloatArray] | None = None
+        """The plant's drives (:class:`phri_sim.world.actuators.CommandShaper`): the 15 commands
+        → the 15 servo set points of the next physics step; ``None`` = the servos follow the
+        commands at once (the ideal plant)."""
 
     @property
     def q(self) -> FloatArray:
@@ -85,7 +93,10 @@ class SimRobot:
 
     def drive(self, u: FloatArray) -> None:
         """Servo set points from the 15 commanded velocities ``u``: body twist [m/s, rad/s] turned
-        into world rates at the current yaw (module docstring), then the arm joints [rad/s]."""
+        into world rates at the current yaw (module docstring), then the arm joints [rad/s]; through
+        :attr:`shaper` when set (once per physics step)."""
+        if self.shaper is not None:
+            u = self.shaper(u)
         d = self.data
         yaw = float(d.qpos[self._yaw_qpos])
         ctrl = d.ctrl
