@@ -40,7 +40,7 @@ from typing import Any
 import numpy as np
 
 from phri_sim.evaluation.following_metrics import Bars, check_bars
-from phri_sim.scenarios.catalogue import SCENARIOS, Scenario, Script
+from phri_sim.scenarios.catalogue import SCENARIOS, Partner, Scenario, Script, with_partner
 from phri_sim.world.person_body import PartTarget
 from phri_sim.world.simulation import Simulation
 
@@ -198,22 +198,24 @@ def lead_script(lead: Lead, profile: Profile, base: Scenario) -> Callable[[Simul
 
 
 def lead_scenario(lead: Lead, profile: Profile, base: str = "waltz") -> Scenario:
-    """A scenario in which the partner of scenario ``base`` leads ``lead`` (module docstring)."""
-    sc = SCENARIOS[base]
+    """A scenario in which the partner of scenario ``base`` leads ``lead`` (module docstring;
+    the partner's hands parked)."""
+    sc = with_partner(SCENARIOS[base], Partner(hand=False))
     return dataclasses.replace(
         sc, name=lead.name, description=f"followability lead: {lead}",
         duration=profile.duration, short_duration=profile.duration,
-        make_script=lead_script(lead, profile, sc), metrics="waltz")
+        make_script=lead_script(lead, profile, sc), metrics="waltz", bars="paper",
+        partner={"lead": lead.name})
 
 
-def lead_passes(metrics: dict[str, Any], bars: Bars) -> dict[str, bool]:
+def lead_passes(metrics: dict[str, Any], bars: Bars) -> dict[str, bool | None]:
     """Whether one lead run stays within the bars:
     :func:`~phri_sim.evaluation.following_metrics.check_bars` on its ``following`` block, the ISO/TS
     15066 limits on every link and part, no limit violations."""
-    out = check_bars(metrics["following"], bars)
+    out: dict[str, bool | None] = dict(check_bars(metrics["following"], bars))
     out["iso15066"] = bool(metrics.get("iso15066", {}).get("ok", True))
     out["no_violations"] = metrics.get("limit_violations", 0) == 0
-    out["all"] = all(v for k, v in out.items() if k != "all")
+    out["all"] = all(v is not False for k, v in out.items() if k != "all")
     return out
 
 
