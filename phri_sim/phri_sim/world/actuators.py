@@ -12,7 +12,7 @@ the simulated velocity servos follow, as the hardware would (docs/phri_sim.md, "
   2. an acceleration- and jerk-limited ramp (the base controller's velocity profile): the set
      point r moves towards the command with acceleration |a| ≤ A and jerk |ȧ| ≤ J, braking its
      acceleration in time so that it does not overshoot a still command (|a| ≤ √(2 J |e|),
-     e = command − r);
+     e = command − r, in its exact form per tick);
   3. a first-order velocity-loop lag τ_b (the wheels' velocity loops with the platform's mass):
      v̇ = (r − v) / τ_b, integrated exactly per tick.
 
@@ -63,7 +63,7 @@ class BaseDrive:
     latency: float = 0.020
     lag: float = 0.030
     acceleration: tuple[float, float, float] = (1.0, 1.0, 1.5)
-    jerk: tuple[float, float, float] = (20.0, 20.0, 30.0)
+    jerk: tuple[float, float, float] = (50.0, 50.0, 75.0)
 
     def __post_init__(self) -> None:
         _check_non_negative("base latency", self.latency)
@@ -183,12 +183,16 @@ class JerkLimitedRamp:
         for i, goal in enumerate(target):
             v, a, j = self.value[i], self.accel[i], self.j_max[i]
             error = goal - v
-            wanted = math.copysign(min(self.a_max[i], math.sqrt(2.0 * j * abs(error))), error)
+            # The largest acceleration from which braking at the jerk limit, tick by tick,
+            # ends on the target: a·h + a²/(2J) − a·h/2 ≤ |e|.
+            brake = j * (math.sqrt(0.25 * h * h + 2.0 * abs(error) / j) - 0.5 * h)
+            wanted = math.copysign(min(self.a_max[i], brake), error)
             dj = j * h
+            settled = abs(a) <= dj  # its acceleration can end this tick within the jerk limit
             a += min(max(wanted - a, -dj), dj)
             v += a * h
-            if abs(goal - v) <= dj * h and abs(a) <= dj:
-                v, a = goal, 0.0  # settled within a tick's worth of jerk: no chattering
+            if settled and abs(goal - v) <= dj * h:
+                v, a = goal, 0.0  # on the target within a tick's worth of jerk: no chattering
             self.value[i], self.accel[i] = v, a
         return self.value
 
