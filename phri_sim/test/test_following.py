@@ -8,7 +8,6 @@ import math
 import numpy as np
 import pytest
 
-from phri_sim.evaluation.partner_feel import rate_lag
 from phri_sim.evaluation.following_metrics import (
     Bars,
     FollowingSeries,
@@ -21,6 +20,7 @@ from phri_sim.evaluation.following_metrics import (
     relative_pose,
     travel,
 )
+from phri_sim.evaluation.partner_feel import rate_lag
 
 DT = 0.01
 T = np.arange(0.0, 10.0, DT)

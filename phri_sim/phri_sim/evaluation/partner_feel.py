@@ -14,16 +14,17 @@ Inputs are series sampled once per control period (docs/phri_sim.md, "Following 
   (unrelated motions);
 * accelerations and jerks (F10): per axis |Δv / Δt| and |Δa / Δt| of a velocity series (a
   command or a measured twist), their 99th percentile and maximum;
-* the force's fluctuation above 1 Hz (F11): a zero-phase 4th-order Butterworth high-pass at
-  :data:`FLUCTUATION_CUTOFF` applied forwards and backwards (scipy ``sosfiltfilt``), its RMS and
-  largest magnitude, and the frequency of the largest peak of its spectrum;
+* the force's fluctuation above 1 Hz (F11): the Fourier components at or above
+  :data:`FLUCTUATION_CUTOFF` (a sharp cut, :func:`high_pass`), their RMS and largest magnitude,
+  and the frequency of the largest peak of their spectrum;
 * time to rest after the partner stops (F12): the partner is *still* while its smoothed speed is
   below :data:`PARTNER_STILL_SPEED` and its smoothed yaw rate below :data:`PARTNER_STILL_RATE`; a
   stop is a still stretch of at least :data:`MIN_STOP` (a close in the waltz, the end of a
-  lead). In each stop the robot is at rest from the first sample after which its base speed stays
-  below :data:`REST_SPEED` and its yaw rate below :data:`REST_RATE` to the end of the stop
-  (at least :data:`MIN_REST` of it); time to rest = that sample − the stop's start, ``None``
-  when it never comes to rest in the stop.
+  lead). In each stop the robot comes to rest at the first sample from which its base speed stays
+  below :data:`REST_SPEED` and its yaw rate below :data:`REST_RATE` for :data:`MIN_REST`
+  (inside the stop); time to rest = that sample − the stop's start, ``None`` when it never
+  comes to rest in the stop (the partner's next motion may begin before the stop's end is
+  detected, so rest is not required to the end).
 """
 
 from __future__ import annotations
@@ -55,7 +56,7 @@ REST_SPEED = 0.002
 REST_RATE = 0.005
 """… and below this yaw rate (2 mm/s at 0.4 m, the base's half width; F12) [rad/s]."""
 MIN_REST = 0.5
-"""The rest that ends a stop must last at least this long to count (F12) [s]."""
+"""The robot is at rest once it stays so this long (F12) [s]."""
 
 
 def _period(times: FloatArray) -> float:
@@ -69,7 +70,7 @@ def smooth(values: FloatArray, dt: float, width: float = SMOOTHING) -> FloatArra
     """Centred moving average of ``width`` [s] (an odd number of samples ≥ 1) along axis 0,
     the ends averaged over the samples that exist."""
     x = np.asarray(values, dtype=np.float64)
-    half = max(0, round(width / dt / 2.0))
+    half = min(max(0, round(width / dt / 2.0)), (x.shape[0] - 1) // 2)  # no wider than the data
     if half == 0:
         return x.copy()
     kernel = np.ones(2 * half + 1)
@@ -143,24 +144,36 @@ def _per_axis(values: FloatArray) -> list[float]:
     return [float(v) for v in np.atleast_1d(values)]
 
 
-def fluctuation(times: FloatArray, signal: FloatArray, cutoff: float = FLUCTUATION_CUTOFF
-                ) -> dict[str, float | None]:
-    """The part of ``signal`` above ``cutoff`` [Hz] (F11): ``rms`` and ``max`` of its magnitude
-    [signal unit], ``peak_frequency`` [Hz] of the largest peak of its power spectral density
-    (Welch, 10 s segments; ``None``: no fluctuation)."""
-    from scipy.signal import butter, sosfiltfilt, welch
-
+def high_pass(times: FloatArray, signal: FloatArray, cutoff: float = FLUCTUATION_CUTOFF
+              ) -> FloatArray:
+    """The part of ``signal`` above ``cutoff`` [Hz] (F11): the line through its first and last
+    samples removed (so the series wraps without a jump), the Fourier components below the
+    cutoff zeroed (a sharp cut: the loop oscillations of issue 14 lie at 1.0–1.7 Hz, where a
+    filter's skirt would halve them), transformed back."""
     dt = _period(times)
     x = np.asarray(signal, dtype=np.float64)
     nyquist = 0.5 / dt
     if not 0.0 < cutoff < nyquist:
         raise ValueError(f"fluctuation cutoff {cutoff} Hz must lie in (0, {nyquist:g}) Hz")
-    sos = butter(4, cutoff / nyquist, btype="highpass", output="sos")
-    high = sosfiltfilt(sos, x) if x.size > 30 else x - x.mean()
-    freqs, spectrum = welch(high, fs=1.0 / dt, nperseg=min(x.size, round(10.0 / dt)))
+    x = x - np.linspace(x[0], x[-1], x.size)
+    spectrum = np.fft.rfft(x)
+    spectrum[np.fft.rfftfreq(x.size, dt) < cutoff] = 0.0
+    return np.fft.irfft(spectrum, n=x.size)
+
+
+def fluctuation(times: FloatArray, signal: FloatArray, cutoff: float = FLUCTUATION_CUTOFF
+                ) -> dict[str, float | None]:
+    """The part of ``signal`` above ``cutoff`` [Hz] (F11, :func:`high_pass`): ``rms`` and
+    ``max`` of its magnitude [signal unit], ``peak_frequency`` [Hz] of the largest peak of its
+    power spectral density (Welch, 10 s segments; ``None``: no fluctuation)."""
+    from scipy.signal import welch
+
+    dt = _period(times)
+    high = high_pass(times, signal, cutoff)
+    freqs, spectrum = welch(high, fs=1.0 / dt, nperseg=min(high.size, round(10.0 / dt)))
     above = freqs >= cutoff
     peak = (float(freqs[above][int(np.argmax(spectrum[above]))])
-            if above.any() and spectrum[above].max() > 1e-9 else None)
+            if above.any() and spectrum[above].max() > 1e-18 else None)
     return {"rms": float(np.sqrt(np.mean(high**2))), "max": float(np.max(np.abs(high))),
             "peak_frequency": peak}
 
@@ -198,12 +211,13 @@ def rest_after_stops(times: FloatArray, partner: FloatArray, twist: FloatArray
     at_rest = (speed < REST_SPEED) & (np.abs(v[:, 2]) < REST_RATE)
     stops: list[dict[str, Any]] = []
     late: list[FloatArray] = []
+    hold = max(1, round(MIN_REST / dt))
+    # rested[k]: at rest at every sample k … k + hold − 1
+    rested = np.convolve(at_rest.astype(float), np.ones(hold), mode="full")[hold - 1:] >= hold
     for a, b in partner_stops(t, partner):
-        moving = np.flatnonzero(~at_rest[a:b])
-        first = a if moving.size == 0 else a + int(moving[-1]) + 1
-        rested = (b - first) * dt >= MIN_REST - 1e-9
+        found = np.flatnonzero(rested[a:max(a, b - hold + 1)])
         stops.append({"start": float(t[a]), "length": (b - a) * dt,
-                      "time_to_rest": (first - a) * dt if rested else None})
+                      "time_to_rest": float(found[0]) * dt if found.size else None})
         late.append(speed[min(a + round(1.0 / dt), b):b])
     times_to_rest = [s["time_to_rest"] for s in stops]
     after = np.concatenate(late) if late else np.zeros(0)
