@@ -252,6 +252,8 @@ def _following_arguments(sub: Any, sim: argparse.ArgumentParser) -> None:
     follow.add_argument("--tempo", action="store_true",
                         help="from the waltz_tempo hold: its controller set (per-axis "
                              "velocity_limits at the robot's own)")
+    follow.add_argument("--plant", choices=PLANT_CHOICES, default="realistic",
+                        help="realistic (default) or ideal plant (as phri sim --plant)")
     _domain_argument(follow)
 
 
@@ -458,7 +460,7 @@ def cmd_followability(args: argparse.Namespace) -> int:
 
     result = run_map(SHORT_FORM if args.short else FULL_FORM, seed=args.seed,
                      controller="stub" if args.motionless else "node", progress=report,
-                     base="waltz_tempo" if args.tempo else "waltz")
+                     base="waltz_tempo" if args.tempo else "waltz", plant=args.plant)
     (out / "followability.json").write_text(json.dumps(result, indent=2) + "\n",
                                             encoding="utf-8")
     plot_map(out / "followability.png", result)
