@@ -19,6 +19,10 @@ four parts, each in its own module:
   [rad/s]; stale → zero, NaN/Inf → refused, clipped to the robot's speed limits as the real drivers
   do.
 
+Between the watchdog and the servos sits the plant's drives (:attr:`Simulation.shaper`,
+:class:`~phri_sim.world.actuators.CommandShaper`; ``SimConfig.plant``: ``realistic`` by default,
+``ideal`` = none).
+
 :meth:`Simulation.step` advances one physics step (2 ms by default). The methods and properties
 below are the interface the bridge, the scenarios and the metrics use; each forwards to one part.
 """
