@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from phri_sim.evaluation.following_metrics import Bars
-from phri_sim.scenarios.catalogue import SCENARIOS, start_scenario
+from phri_sim.scenarios.catalogue import SCENARIOS, Partner, start_scenario, with_partner
 from phri_sim.studies.leads import (
     FULL_TIMING,
     Lead,
@@ -67,7 +67,7 @@ def test_a_translation_moves_the_hold_rigidly_at_the_lead_speed(sim: Simulation)
     lead = Lead("translate", 0.1, 90.0)
     sc = lead_scenario(lead, SHORT_PROFILE)
     script = start_scenario(sim, sc)
-    hold = SCENARIOS["waltz"].make_script(sim)(0.0)
+    hold = with_partner(SCENARIOS["waltz"], Partner(hand=False)).make_script(sim)(0.0)
     t = SHORT_PROFILE.intro + SHORT_PROFILE.ramp + 0.5
     now = script(t)
     shift = 0.1 * SHORT_PROFILE.distance(t)[0]

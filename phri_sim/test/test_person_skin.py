@@ -156,7 +156,9 @@ def test_robot_yields_and_force_falls() -> None:
 
 
 def test_body_twist_is_followed_in_the_body_frame() -> None:
-    sim = Simulation(SimConfig(skin=SkinConfig(noise_std=0.0)))
+    """The ideal plant (servos at once): the body-frame mapping alone, without the realistic
+    drives' latency and ramps (test_actuators.py)."""
+    sim = Simulation(SimConfig(skin=SkinConfig(noise_std=0.0), plant="ideal"))
     q = np.array(Q_HOME)
     q[2] = np.pi / 2  # facing +y
     sim.reset(q)

@@ -82,8 +82,10 @@ def test_rejects_bad_settings(timeout: float, limits: np.ndarray | None, field: 
 
 def test_simulated_speeds_are_clipped_to_the_description_limits() -> None:
     """Like the real drivers, the simulation caps commanded speeds at the description's limits:
-    a base turn and a shoulder commanded at 100 rad/s move at their limits."""
-    sim = Simulation(SimConfig(skin=SkinConfig(noise_std=0.0)))
+    a base turn and a shoulder commanded at 100 rad/s move at their limits (on the ideal plant,
+    whose servos get there within the test's 0.2 s; the realistic plant ramps to the same
+    limits: test_actuators.py)."""
+    sim = Simulation(SimConfig(skin=SkinConfig(noise_std=0.0), plant="ideal"))
     sim.reset(np.array(Q_HOME))
     limits = robot_description().velocity_limits()
     assert limits[2] < 100.0 and limits[3] < 100.0  # base yaw, left shoulder pan

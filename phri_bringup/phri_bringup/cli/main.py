@@ -6,6 +6,10 @@
     phri sim --scenario centring --short --no-video
     phri sim --scenario waltz --foxglove          # live view on ws://localhost:8765
     phri sim --scenario waltz --fault skin_blind --fault-time 5   # rehearse a sensor fault
+    phri sim --scenario waltz --tempo-scale 2 --sway 1 --no-video   # a faster partner who sways
+    phri sim --lead spin_left --no-video          # an unscripted lead (spins, pivots, box, …)
+    phri sim --plant ideal                        # servos that follow every command at once
+    phri ladder [--plant both] [--full]           # the tempo ladder against the bars
     phri followability [--short] [--tempo] --out runs/followability   # the followability map
     phri plot runs/waltz                          # panels again from the recording
     phri video runs/waltz                         # video again from the recording
@@ -125,6 +129,9 @@ def _parser() -> argparse.ArgumentParser:
 
     layouts = sub.add_parser("layouts", help="write nominal skin layout files (real robot)")
     layouts.add_argument("directory")
+    from phri_bringup.cli import ladder
+
+    ladder.add_parser(sub, _domain_argument)
     return parser
 
 
@@ -166,6 +173,7 @@ def _sim_arguments(sub: Any) -> None:
     sim.add_argument("--tempo", choices=WALTZ_TEMPOS, default="paper",
                      help="waltz tempo: paper (within Table II's limits, default) or tempo "
                           "(a real slow waltz, bar 2 s)")
+    _plant_and_partner_arguments(sim)
     sim.add_argument("--record", default=None, metavar="DIR",
                      help="recording directory (default OUT/recording)")
     sim.add_argument("--no-record", action="store_true",
@@ -188,6 +196,59 @@ def _sim_arguments(sub: Any) -> None:
     _following_arguments(sub, sim)
 
 
+PLANT_CHOICES = ("realistic", "ideal")
+"""phri_sim.world.actuators.PLANTS (kept here so ``phri --help`` does not import the simulator;
+a test checks they agree)."""
+LEAD_CHOICES = ("spin_left", "spin_right", "pivot_slow", "pivot_fast", "back_away", "box")
+"""phri_sim.studies.unscripted_leads.UNSCRIPTED_LEADS (a test checks they agree)."""
+
+
+def positive_number(text: str) -> float:
+    """``--tempo-scale`` value: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (value > 0.0 and value < float("inf")):
+        raise argparse.ArgumentTypeError(f"{value:g} refused: must be a finite number > 0")
+    return value
+
+
+def _plant_and_partner_arguments(sim: argparse.ArgumentParser) -> None:
+    """``phri sim``'s plant and partner options (docs/phri_sim.md, "Plant", "The partner")."""
+    sim.add_argument("--plant", choices=PLANT_CHOICES, default="realistic",
+                     help="realistic (default): the base's command latency, acceleration and "
+                          "jerk limits and velocity-loop lag, the UR16e's RTDE cycle and speedJ "
+                          "ramp, the skin through the driver's 500 Hz moving average; ideal: "
+                          "servos that follow every command at once")
+    sim.add_argument("--tempo-scale", type=positive_number, default=1.0, metavar="K",
+                     help="waltz: the routine danced K times faster (default 1)")
+    sim.add_argument("--sway", type=int, default=None, metavar="SEED",
+                     help="waltz: a partner with seeded postural sway, hesitations and small "
+                          "deviations from the script")
+    sim.add_argument("--no-partner-hand", dest="partner_hand", action="store_false",
+                     default=True, help="waltz: the partner's other hand does not rest on the "
+                     "robot's right forearm")
+    sim.add_argument("--lead", choices=LEAD_CHOICES, default=None,
+                     help="an unscripted lead from the waltz's hold instead of the waltz: "
+                          "spins in place, couple turns about a pivot, backing away, a quick box")
+
+
+def partner_variant(args: argparse.Namespace) -> Any:
+    """``vary`` for :func:`~phri_bringup.cli.session.run_session` from ``phri sim``'s partner
+    options (None: the scenario as it is)."""
+    from phri_sim.scenarios.catalogue import Partner, with_partner
+    from phri_sim.studies.unscripted_leads import UNSCRIPTED_LEADS, unscripted_scenario
+
+    if args.lead is not None:
+        lead = UNSCRIPTED_LEADS[args.lead]
+        return lambda sc: unscripted_scenario(lead, sc)
+    partner = Partner(tempo_scale=args.tempo_scale, sway=args.sway, hand=args.partner_hand)
+    if partner == Partner():
+        return None
+    return lambda sc: with_partner(sc, partner)
+
+
 def _following_arguments(sub: Any, sim: argparse.ArgumentParser) -> None:
     """``phri sim --baseline / --no-baseline`` and the ``phri followability`` sub-command."""
     sim.add_argument("--baseline", dest="baseline", action="store_true", default=None,
@@ -206,6 +267,8 @@ def _following_arguments(sub: Any, sim: argparse.ArgumentParser) -> None:
     follow.add_argument("--tempo", action="store_true",
                         help="from the waltz_tempo hold: its controller set (per-axis "
                              "velocity_limits at the robot's own)")
+    follow.add_argument("--plant", choices=PLANT_CHOICES, default="realistic",
+                        help="realistic (default) or ideal plant (as phri sim --plant)")
     _domain_argument(follow)
 
 
@@ -229,9 +292,11 @@ def _enter_domain(args: argparse.Namespace) -> int:
 def main(argv: list[str] | None = None) -> int:
     """Entry point ``phri``."""
     args = _parser().parse_args(argv)
+    from phri_bringup.cli.ladder import cmd_ladder
+
     handler = {"sim": cmd_sim, "plot": cmd_plot, "video": cmd_video, "params": cmd_params,
                "graph": cmd_graph, "layouts": cmd_layouts,
-               "followability": cmd_followability,
+               "followability": cmd_followability, "ladder": cmd_ladder,
                "paper-report": cmd_paper_report}[args.command]
     try:
         code = handler(args)
@@ -261,7 +326,13 @@ def cmd_sim(args: argparse.Namespace) -> int:
 
     name, args.params = waltz_variant(canonical_scenario(args.scenario), args.tempo, args.params)
     check_params(name, args.params)
-    out = Path(args.out or f"runs/{scenario_file(name)}")
+    vary = partner_variant(args)
+    if vary is not None:
+        from phri_sim.scenarios.catalogue import scenario_named
+
+        vary(scenario_named(name))  # a partner option on a scenario that is not a waltz: exit 2
+    stem = scenario_file(name) if args.lead is None else f"lead_{args.lead}"
+    out = Path(args.out or f"runs/{stem}")
     record_dir = None if args.no_record else Path(args.record or out / "recording")
     sinks = _open_sinks(args, out, record_dir)
     _enter_domain(args)
@@ -274,7 +345,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
     try:
         result = run_session(name, _run_options(args), sinks=sinks, params_file=args.params,
                              pace=pace, progress=_progress_printer(start), stop=stop,
-                             inspect=runs.append)
+                             inspect=runs.append, vary=vary)
     except Exception as err:
         _log(f"run failed: {type(err).__name__}: {err}")
         return 2 if isinstance(err, ValueError) else 1
@@ -336,7 +407,7 @@ def _run_options(args: argparse.Namespace) -> Any:
                       fidelity=args.fidelity, skin_driver=args.skin_driver,
                       fault=args.fault or "", fault_time=args.fault_time,
                       fault_patch=args.fault_patch, fault_value=args.fault_value,
-                      shove=args.shove)
+                      shove=args.shove, plant=args.plant)
 
 
 def _open_sinks(args: argparse.Namespace, out: Path, record_dir: Path | None) -> list[Any]:
@@ -367,8 +438,6 @@ def _following(args: argparse.Namespace, name: str, metrics: dict[str, Any], run
     ``--no-baseline``) into ``metrics['motionless']``, the side-by-side table, and
     ``plots/following.png``."""
     from phri_bringup.reports.following_report import plot_following, run_motionless, side_by_side
-    from phri_sim.ros.run_options import RunOptions
-    from phri_sim.scenarios.catalogue import scenario_named
 
     if "following" not in metrics:
         if args.baseline:
@@ -378,9 +447,8 @@ def _following(args: argparse.Namespace, name: str, metrics: dict[str, Any], run
     still, still_series = None, None
     if args.baseline is not False:
         _log("motionless baseline: the same scenario with zero commands")
-        still, still_series = run_motionless(
-            scenario_named(name), RunOptions(duration=args.duration, short=args.short,
-                                             seed=args.seed))
+        # The same scenario value (parameters, partner, lead) and plant, a motionless robot.
+        still, still_series = run_motionless(runs[0].scenario, runs[0].options)
         metrics["motionless"] = still
     for line in side_by_side(metrics["following"],
                              None if still is None else still.get("following")):
@@ -409,7 +477,7 @@ def cmd_followability(args: argparse.Namespace) -> int:
 
     result = run_map(SHORT_FORM if args.short else FULL_FORM, seed=args.seed,
                      controller="stub" if args.motionless else "node", progress=report,
-                     base="waltz_tempo" if args.tempo else "waltz")
+                     base="waltz_tempo" if args.tempo else "waltz", plant=args.plant)
     (out / "followability.json").write_text(json.dumps(result, indent=2) + "\n",
                                             encoding="utf-8")
     plot_map(out / "followability.png", result)

@@ -117,6 +117,7 @@ def run_session(
     stop: StopFlag | None = None,
     context: Context | None = None,
     inspect: Callable[[Any], None] | None = None,
+    vary: Callable[[Scenario], Scenario] | None = None,
 ) -> SessionResult:
     """Run ``scenario`` (any accepted spelling, :func:`session_scenario`) lock-step through the
     real nodes.
@@ -132,10 +133,14 @@ def run_session(
             clean shutdown) and ``interrupted`` is True.
         context: an initialised rclpy context to use (tests); else one is made and shut down.
         inspect: called with the :class:`~phri_sim.ros.runner.ScenarioRun` before it runs (tests).
+        vary: turns the scenario (with the file's parameters) into the one run: another
+            partner (:func:`phri_sim.scenarios.catalogue.with_partner`) or an unscripted lead.
     """
     from phri_sim.ros.runner import ScenarioRun
 
     values = session_scenario(scenario, params_file)
+    if vary is not None:
+        values = vary(values)
     own = context is None
     if own:
         context = Context()

@@ -171,6 +171,9 @@ class MetricsRecorder:
         self.base_pose: list[FloatArray] = []
         self.partner_pose: list[FloatArray] = []
         self.waist_force: list[float] = []
+        self.base_twist: list[FloatArray] = []
+        self.arm_velocity: list[FloatArray] = []
+        self.commands: list[FloatArray] = []
         self.violations = 0
         self.violation_kinds: dict[str, int] = {"joint_limit": 0, "dance_band": 0, "velocity": 0}
         self.max_command = 0.0
@@ -248,6 +251,9 @@ class MetricsRecorder:
         lead = truth.get(WALTZ_LINK)  # as sim/contacts/<link>/wrench: ‖f‖
         self.waist_force.append(0.0 if lead is None else float(np.linalg.norm(lead.force_link)))
         self.base_pose.append(q[:3].copy())
+        self.base_twist.append(sim.base_twist())
+        self.arm_velocity.append(sim.qd[3:].copy())
+        self.commands.append(np.array(command, dtype=np.float64))
         if sim.parts:  # the partner's pose: the first part (torso / pelvis), as sim/person/poses
             pos, quat = sim.part_pose(sim.parts[0].name)
             self.partner_pose.append(np.array([pos[0], pos[1], yaw_from_quaternion(*quat)]))
@@ -305,8 +311,12 @@ class MetricsRecorder:
                 not self.times):
             return None
         force = np.array(self.waist_force)
+        commands = np.array(self.commands)
         return FollowingSeries(np.array(self.times), np.array(self.base_pose),
-                               np.array(self.partner_pose), force, force > 0.0)
+                               np.array(self.partner_pose), force, force > 0.0,
+                               twist=np.array(self.base_twist), command=commands[:, :3],
+                               arm_velocity=np.array(self.arm_velocity),
+                               arm_command=commands[:, 3:])
 
     def _peak_forces(self) -> dict[str, dict[str, float]] | None:
         """Peak contact force per partner body part and per robot link [N] (every physics

@@ -55,12 +55,14 @@ from phri_common.stamps import ns_to_stamp
 from phri_common.taxels import TaxelCloudEncoder
 from phri_sim.ros.arm_status import arm_status
 from phri_sim.scenarios.catalogue import Q_HOME, SCENARIOS, Scenario, Script, start_scenario
+from phri_sim.world.actuators import DEFAULT_PLANT, PLANTS
 from phri_sim.world.protective_stop import ProtectiveStopConfig
 from phri_sim.world.sensor_faults import DEFAULT_FAULT_TIME, FAULT_KINDS, FaultSpec, SensorFaults
 from phri_sim.world.shove import Shove, ShoveSpec
 from phri_sim.world.simulation import ARM_JOINTS, CommandError, SimConfig, Simulation
 from phri_sim.world.skin_driver_loop import SkinLink
 from phri_sim.world.skin_footprint import SkinConfig
+from phri_sim.world.skin_pipeline import DriverPipeline
 
 PARAMS: list[ParamSpec] = [
     ParamSpec("lockstep", False, "advance only when the owner calls advance() (in-process "
@@ -125,6 +127,11 @@ PARAMS: list[ParamSpec] = [
     ParamSpec("protective_stop", True, "the arms' own protective stop, as a UR16e's safety "
               "system does it (docs: Protective stop); false: arms that never stop themselves "
               "(comparisons only)", read_only=True),
+    ParamSpec("plant", DEFAULT_PLANT, "what stands between the commands and the simulated robot: "
+              "realistic (the base's latency, acceleration and jerk limits and velocity-loop lag; "
+              "the UR16e's RTDE cycle and speedJ ramp; the skin through the driver's 500 Hz "
+              "moving average) or ideal (servos follow every command at once, newest skin "
+              "sample; docs: Plant)", read_only=True),
 ]
 
 SENSOR_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
@@ -165,7 +172,12 @@ def _publish_steps(rate_hz: float, skin_every: int, dt: float) -> int:
 
 def sim_config(values: dict[str, ParamValue]) -> SimConfig:
     """The simulation's configuration from the bridge's parameter values (skin model, command
-    timeout [s], seed, physics step [s])."""
+    timeout [s], seed, physics step [s], plant); ValueError naming ``plant`` for an unknown
+    plant."""
+    plant = str(values["plant"])
+    if plant not in PLANTS:
+        raise ValueError(f"parameter 'plant' refused value {plant!r}: allowed "
+                         f"{', '.join(PLANTS)}")
     return SimConfig(
         skin=SkinConfig(softness=float(values["skin_softness"]),
                         noise_std=float(values["skin_noise_std"]),
@@ -176,6 +188,7 @@ def sim_config(values: dict[str, ParamValue]) -> SimConfig:
         seed=int(values["seed"]),
         timestep=float(values["physics_timestep"]),
         protective_stop=ProtectiveStopConfig(enabled=bool(values["protective_stop"])),
+        plant=plant,
     )
 
 
@@ -305,6 +318,12 @@ class SimBridgeNode(Node):
         if bool(v["skin_driver"]):
             self.skin_link = SkinLink(self.sim.skins.sensors)
             self.skin_link.tare(self._skin_every * self.sim.dt)
+        self.pipeline: DriverPipeline | None = None
+        """The driver's moving average on the realistic plant without the driver in the loop
+        (:mod:`phri_sim.world.skin_pipeline`)."""
+        if self.skin_link is None and self.sim.plant.skin_pipeline:
+            self.pipeline = DriverPipeline(self._skin_every * self.sim.dt,
+                                           tuple(self.sim.patches))
         self._readings: dict[str, np.ndarray] = {}
         self._taxel_listeners: list[TaxelListener] = []
         self._state_listeners: list[tuple[JointStateListener, OdometryListener]] = []
@@ -519,20 +538,23 @@ class SimBridgeNode(Node):
         """One skin sample of every patch due (below); publish the newest reading of each
         patch sampled since the last publication when ``publish``.
 
-        With the driver in the loop every sample goes through it (its moving average needs
-        them all); without it, a sample that is not published is not computed (nothing would
-        see it). With ``skin_idle_decimation`` N > 1 a patch nobody touches (and that was
-        untouched in its last sample) is read only once N samples have passed since its last
+        With the driver in the loop, or its pipeline modelled (:attr:`pipeline`), every sample
+        goes through it (its moving average needs them all); otherwise a sample that is not
+        published is not computed (nothing would see it). With ``skin_idle_decimation`` N > 1 a
+        patch nobody touches (and that was untouched in its last sample, and whose modelled
+        pipeline holds no force) is read only once N samples have passed since its last
         reading (so every N skin periods, driver or not).
         """
         for name in self._idle_count:
             self._idle_count[name] += 1
-        if self.skin_link is None and not publish:
+        pipeline = self.pipeline
+        if self.skin_link is None and pipeline is None and not publish:
             return
         every = self._idle_every
         due: dict[str, np.ndarray] = {}
         for name, clean in self.sim.clean_skin_forces().items():
-            touched = bool(np.any(clean > 0.0))
+            touched = bool(np.any(clean > 0.0)) or (pipeline is not None
+                                                   and pipeline.holding(name))
             if every <= 1 or touched or self._was_touched[name] or self._idle_count[name] >= every:
                 self._idle_count[name] = 0
                 self._was_touched[name] = touched
@@ -545,6 +567,8 @@ class SimBridgeNode(Node):
         """Readings [N] of the patches in ``clean`` (true forces) through the sensor model and,
         when in the loop, the skin driver, kept until published."""
         if self.skin_link is None:
+            if self.pipeline is not None:
+                clean = self.pipeline.push(clean)
             for name, forces in clean.items():
                 self._readings[name] = self.sim.skin_reading(name, forces)
             return
@@ -557,7 +581,10 @@ class SimBridgeNode(Node):
         if not force:
             self.sample_skin(publish=True)
             return
-        self._read(self.sim.clean_skin_forces())
+        clean = self.sim.clean_skin_forces()
+        if self.pipeline is not None:
+            self.pipeline.prime(clean)  # the state so far has lasted: a settled hold reads it
+        self._read(clean)
         self._publish_readings()
 
     def add_taxel_listener(self, listener: TaxelListener) -> None:

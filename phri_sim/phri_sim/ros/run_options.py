@@ -13,6 +13,7 @@ from typing import Any
 
 from phri_common import paper
 from phri_sim.scenarios.catalogue import Scenario
+from phri_sim.world.actuators import DEFAULT_PLANT, PLANTS
 from phri_sim.world.sensor_faults import DEFAULT_FAULT_TIME
 
 SKIN_RATE_HZ = 100.0
@@ -108,6 +109,10 @@ class RunOptions:
             :mod:`phri_sim.world.shove`).
         protective_stop: the arms' own protective stop (false: arms that never stop
             themselves, for comparisons; bridge parameter ``protective_stop``).
+        plant: what stands between the commands and the simulated robot, a key of
+            :data:`phri_sim.world.actuators.PLANTS` (``realistic``: the drives' latency, ramps
+            and lag, the skin driver's moving average; ``ideal``: none; docs/phri_sim.md,
+            "Plant").
     """
 
     duration: float | None = None
@@ -128,10 +133,11 @@ class RunOptions:
     fault_value: float = 0.0
     shove: str = ""
     protective_stop: bool = True
+    plant: str = DEFAULT_PLANT
 
     def __post_init__(self) -> None:
         for name, allowed in (("fidelity", tuple(FIDELITIES)), ("controller", CONTROLLERS),
-                              ("sensor_transport", SENSOR_TRANSPORTS)):
+                              ("sensor_transport", SENSOR_TRANSPORTS), ("plant", tuple(PLANTS))):
             value = getattr(self, name)
             if value not in allowed:
                 raise ValueError(f"{name} must be one of {', '.join(allowed)}, got {value!r}")
@@ -157,4 +163,5 @@ class RunOptions:
             "fault_time": float(self.fault_time), "fault_patch": self.fault_patch,
             "fault_value": float(self.fault_value), "shove": self.shove,
             "protective_stop": self.protective_stop,
+            "plant": self.plant,
         }

@@ -60,7 +60,7 @@ from phri_common import paper
 from phri_common.contact import ContactMessageError, msg_to_contact
 from phri_common.records import ContactState
 from phri_description.description import SKIN_LINKS
-from phri_sim.evaluation.following_metrics import TEMPO_BARS
+from phri_sim.evaluation.following_metrics import BAR_SETS
 from phri_sim.evaluation.metrics import MetricsRecorder
 from phri_sim.ros.bridge import ARM_TOPICS, SimBridgeNode
 from phri_sim.ros.lockstep import LockStep, LockStepError, Missing
@@ -72,6 +72,7 @@ from phri_sim.scenarios.catalogue import (
     Scenario,
     scenario_named,
 )
+from phri_sim.world.actuators import DEFAULT_PLANT, PLANTS
 from phri_sim.world.sensor_faults import DEFAULT_FAULT_TIME, FAULT_KINDS
 
 __all__ = ["LockStepError", "RunOptions", "ScenarioRun", "run_scenario"]
@@ -169,7 +170,7 @@ def _metrics(scenario: Scenario, sim: Any, fault_time: float | None) -> MetricsR
         limit if per_axis is None else np.minimum(np.asarray(per_axis, dtype=float), limit),
         _dance_ranges(params), fault_time=fault_time,
         desired_force=WALTZ_FORCE if desired is None else float(np.linalg.norm(desired)),
-        bars=TEMPO_BARS if scenario.name == "waltz_tempo" else None,
+        bars=BAR_SETS[scenario.bars],
     )
     metrics.watch(sim)
     return metrics
@@ -343,6 +344,8 @@ class ScenarioRun:
             "fidelity": self.options.fidelity,
             "skin_driver": self.options.skin_driver,
             "sensor_transport": self.options.sensor_transport,
+            "plant": self.options.plant,
+            "partner": self.scenario.partner,
             "commands_refused": self.bridge.commands_refused,
         })
         if faults.spec is not None:
@@ -427,6 +430,10 @@ def _arguments(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--fault-value", type=float, default=0.0,
                         help="the fault's factor / noise / value (0 = the kind's default)")
     parser.add_argument("--shove", default="", help="FORCE N@TIME s+DURATION s[:push|:force]")
+    parser.add_argument("--plant", choices=sorted(PLANTS), default=DEFAULT_PLANT,
+                        help="realistic: the drives' latency, ramps and lag and the skin "
+                        "driver's moving average (default); ideal: servos follow every command "
+                        "at once")
     return parser.parse_args(argv)
 
 
@@ -446,6 +453,7 @@ def main(argv: list[str] | None = None) -> None:
         controller="stub" if args.stub else "node", sensor_transport=args.sensor_transport,
         viewer=args.viewer, fault=args.fault or "", fault_time=args.fault_time,
         fault_patch=args.fault_patch, fault_value=args.fault_value, shove=args.shove,
+        plant=args.plant,
     )
     metrics = run_scenario(args.scenario, options, output=args.out, progress=report)
     print(json.dumps(metrics, indent=2))

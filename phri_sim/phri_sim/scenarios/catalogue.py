@@ -54,7 +54,14 @@ from phri_common import paper
 from phri_description.description import SKIN_LINKS, robot_description
 from phri_sim.scenarios.hand import ForceHand, Touch, make_touch
 from phri_sim.scenarios.motion_profiles import minimum_jerk
-from phri_sim.scenarios.waltz_choreography import waltz_choreography
+from phri_sim.scenarios.partner_variability import (
+    PosturalSway,
+    Sway,
+    Variability,
+    deviate,
+    human_variability,
+)
+from phri_sim.scenarios.waltz_choreography import TEMPOS, Choreography, routine
 from phri_sim.world.person_body import TORSO, WAIST_RADIUS, PartTarget
 from phri_sim.world.simulation import Simulation
 from wholebody_controller.config import ROBOT_ACCELERATION_LIMITS
@@ -116,6 +123,11 @@ class Scenario:
         metrics: which metrics apply (``centring``, ``tracking``, ``whole_body``, ``waltz``).
         settle: physics settling time before t = 0 with the robot held still, so contacts the
             script starts with are at rest (:meth:`Simulation.settle`) [s].
+        bars: the following bars it is judged by, a name of
+            :data:`phri_sim.evaluation.following_metrics.BAR_SETS` (``paper``: pose and force;
+            ``waltz``: every bar of the default waltz; ``tempo``: the faster rungs'; ``sway``).
+        partner: how the partner departs from the script (tempo scale, sway seed, the other
+            hand), for the metrics; empty for the scripted partner.
     """
 
     name: str
@@ -128,6 +140,8 @@ class Scenario:
     metrics: str
     estimation_parameters: dict[str, Any] = field(default_factory=dict)
     settle: float = 0.0
+    bars: str = "paper"
+    partner: dict[str, Any] = field(default_factory=dict)
 
 
 def start_scenario(sim: Simulation, scenario: Scenario) -> Script:
@@ -348,21 +362,86 @@ def waltz_start(sim: Simulation) -> FloatArray:
     return np.asarray(centre + inward * (WALTZ_FORCE / TORSO.tissue.stiffness))
 
 
-def waltz_script(sim: Simulation, tempo: str = "paper") -> Script:
-    """The torso dances :func:`~phri_sim.scenarios.waltz_choreography.waltz_choreography` at
-    ``tempo`` from :func:`waltz_start` (heading :data:`WALTZ_START_YAW`), its spring target
-    :data:`WALTZ_FORCE` / K behind its waist centre, towards its back (the dancer leans into the
-    hold with the preload, the lean turning with the dancer); hands stay parked (the robot is led
-    by the waist alone: hands pressing the skin would add contact tasks of their own)."""
+@dataclass(frozen=True)
+class Partner:
+    """How the waltz partner departs from the scripted routine (docs/phri_sim.md, "The partner").
+
+    Attributes:
+        tempo_scale: K, the routine danced K times faster (beats K times shorter, steps as
+            long; K = 1: the tempo's own) [1].
+        sway: seed of the human variability (:mod:`phri_sim.scenarios.partner_variability`:
+            postural sway, hesitations, small deviations); ``None`` = none.
+        hand: the partner's other hand rests on the robot's right forearm (Fig. 1's hold:
+            :data:`HAND_REST`).
+    """
+
+    tempo_scale: float = 1.0
+    sway: int | None = None
+    hand: bool = True
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.tempo_scale) and self.tempo_scale > 0.0):
+            raise ValueError(f"tempo scale {self.tempo_scale}: must be a finite number > 0")
+        if self.sway is not None and self.sway < 0:
+            raise ValueError(f"sway seed {self.sway}: must be >= 0")
+
+    def describe(self) -> dict[str, Any]:
+        """The partner as reported in the metrics."""
+        return {"tempo_scale": self.tempo_scale, "sway": self.sway, "hand": self.hand}
+
+
+HAND_REST_PATCH = "right_forearm"
+"""Where the partner's other hand rests (Fig. 1's hold: the robot's left forearm lies across the
+partner's back like a leader's right arm; the robot's right forearm, in front of the partner at
+chest height, is where the leader's left hand would hold the partner's right hand). A link of its
+own: contact estimation reports it apart from the waist on the left forearm."""
+HAND_REST_S = 0.18
+"""Axial position of the resting hand on its patch (the middle, in front of the partner) [m]."""
+HAND_REST_FORCE = 3.0
+"""The resting hand's normal force [N]: a relaxed hand and forearm partly resting their weight,
+pressing from above (a light second contact; the leading waist holds 10 N)."""
+
+
+def _dance(tempo: str, partner: Partner) -> tuple[Choreography, Variability | None]:
+    """The routine at ``tempo`` scaled by the partner's tempo scale and deviated by its sway."""
+    base = TEMPOS[tempo]
+    pace = dataclasses.replace(base, name=f"{tempo}x{partner.tempo_scale:g}",
+                               beat=base.beat / partner.tempo_scale)
+    beats = routine(pace)
+    if partner.sway is None:
+        return Choreography(beats, pace.beat, WALTZ_INTRO, WALTZ_OUTRO), None
+    dance = (WALTZ_INTRO, WALTZ_INTRO + len(beats) * pace.beat)
+    var = human_variability(Sway(partner.sway), len(beats), dance)
+    beats = deviate(beats, var.step_factors, var.turn_factors)
+    return Choreography(beats, pace.beat, WALTZ_INTRO, WALTZ_OUTRO), var
+
+
+def waltz_script(sim: Simulation, tempo: str = "paper", partner: Partner = Partner()) -> Script:
+    """The torso dances :func:`~phri_sim.scenarios.waltz_choreography.routine` at ``tempo`` (and
+    the partner's tempo scale, sway, hesitations and deviations, :class:`Partner`) from
+    :func:`waltz_start` (heading :data:`WALTZ_START_YAW`), its spring target :data:`WALTZ_FORCE`
+    / K behind its waist centre, towards its back (the dancer leans into the hold with the
+    preload, the lean turning with the dancer); with ``partner.hand`` the right hand rests on
+    the robot's right forearm (:data:`HAND_REST_FORCE`, from the start to the end), the left
+    hand stays parked."""
     start = waltz_start(sim)
-    chor = waltz_choreography(tempo, WALTZ_INTRO, WALTZ_OUTRO)
+    chor, var = _dance(tempo, partner)
     c0, s0 = math.cos(WALTZ_START_YAW), math.sin(WALTZ_START_YAW)
     rot0 = np.array([[c0, -s0], [s0, c0]])
     lean = WALTZ_FORCE / TORSO.stiffness
     parks = {p.name: PartTarget(np.array(p.parking), np.zeros(3)) for p in sim.parts}
+    hand = None
+    if partner.hand:
+        end = chor.duration + (0.0 if var is None else var.hesitations.total)
+        hand = ForceHand(sim, parks["person_right_hand"].position, [make_touch(
+            sim, HAND_REST_PATCH, HAND_REST_S, UP, 0.0, end + 1.0, HAND_REST_FORCE)])
 
     def script(t: float) -> dict[str, PartTarget]:
-        p, psi, v, rate = chor.pose(t)
+        clock, pace = (t, 1.0) if var is None else var.hesitations.clock(t)
+        p, psi, v, rate = chor.pose(clock)
+        v, rate = v * pace, rate * pace
+        if var is not None:
+            p, psi, v, rate = _swayed(var.sway, t, p, psi, v, rate)
         yaw = WALTZ_START_YAW + psi
         cy, sy = math.cos(yaw), math.sin(yaw)
         xy = start[:2] + rot0 @ p + lean * np.array([-cy, -sy])
@@ -370,14 +449,31 @@ def waltz_script(sim: Simulation, tempo: str = "paper") -> Script:
         out = dict(parks)
         out["person_torso"] = PartTarget(np.array([xy[0], xy[1], start[2]]),
                                          np.array([vxy[0], vxy[1], 0.0]), yaw, rest=start)
+        if hand is not None:
+            out["person_right_hand"] = hand(t)
         return out
 
     return script
 
 
-def waltz_duration(tempo: str = "paper") -> float:
-    """Length of the waltz at ``tempo``: intro, the routine and the outro [s]."""
-    return waltz_choreography(tempo, WALTZ_INTRO, WALTZ_OUTRO).duration
+def _swayed(sway: PosturalSway, t: float, p: FloatArray, psi: float, v: FloatArray,
+            rate: float) -> tuple[FloatArray, float, FloatArray, float]:
+    """The pose (position and velocity in the dance frame [m, m/s], heading and its rate [rad,
+    rad/s]) with the postural sway at ``t`` added in the dancer's own frame."""
+    off, off_rate = sway.at(t)
+    c, s = math.cos(psi), math.sin(psi)
+    body = np.array([[c, -s], [s, c]])
+    turn = np.array([[-s, -c], [c, -s]])  # d(body)/dψ
+    p = p + body @ off[:2]
+    v = v + body @ off_rate[:2] + rate * (turn @ off[:2])
+    return p, psi + float(off[2]), v, rate + float(off_rate[2])
+
+
+def waltz_duration(tempo: str = "paper", partner: Partner = Partner()) -> float:
+    """Length of the waltz at ``tempo`` danced by ``partner``: intro, the routine (with its
+    hesitations) and the outro [s]."""
+    chor, var = _dance(tempo, partner)
+    return chor.duration + (0.0 if var is None else var.hesitations.total)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -475,13 +571,14 @@ SCENARIOS: dict[str, Scenario] = {
                  whole_body_script, "whole_body"),
         Scenario("waltz", "Fig. 1: the partner leads a waltz (paper tempo) through the waist",
                  waltz_duration("paper"), WALTZ_SHORT, Q_WALTZ, WALTZ_PARAMS, waltz_script,
-                 "waltz", settle=WALTZ_SETTLE),
+                 "waltz", settle=WALTZ_SETTLE, bars="waltz", partner=Partner().describe()),
         Scenario("waltz_tempo", "Fig. 1 at a real slow-waltz tempo (bar 2 s)",
                  waltz_duration("tempo"), waltz_duration("tempo"), Q_WALTZ, WALTZ_TEMPO_PARAMS,
-                 partial(waltz_script, tempo="tempo"), "waltz", settle=WALTZ_SETTLE),
+                 partial(waltz_script, tempo="tempo"), "waltz", settle=WALTZ_SETTLE,
+                 bars="tempo", partner=Partner().describe()),
         Scenario("waltz_paper", "Fig. 1 (paper tempo) with the paper's literal parameter set",
                  waltz_duration("paper"), WALTZ_SHORT, Q_WALTZ, WALTZ_PAPER_PARAMS, waltz_script,
-                 "waltz", settle=WALTZ_SETTLE),
+                 "waltz", settle=WALTZ_SETTLE, bars="waltz", partner=Partner().describe()),
     )
 }
 
@@ -494,6 +591,28 @@ PARAMETER_SETS: dict[str, dict[str, dict[str, Any]]] = {
 }
 """Selectable controller parameter sets per scenario: ``phri`` (the scenario's own: the paper's
 values with the documented Ω_d deviations) and ``literal`` (the paper's values only)."""
+
+
+WALTZ_TEMPO_OF = {"waltz": "paper", "waltz_paper": "paper", "waltz_tempo": "tempo"}
+"""The choreography tempo of each waltz scenario of the catalogue."""
+
+
+def with_partner(scenario: Scenario, partner: Partner) -> Scenario:
+    """A waltz scenario of the catalogue (any parameter set) danced by ``partner``: its script,
+    length (CI length: the shorter of its own and the new length), bars (``tempo`` for the
+    ``tempo`` choreography and for K > 1, ``sway`` with sway, else ``waltz``) and the partner in
+    the metrics. ValueError for a scenario that is not a waltz."""
+    tempo = WALTZ_TEMPO_OF.get(scenario.name)
+    if tempo is None or scenario.metrics != "waltz":
+        raise ValueError(f"scenario {scenario.name!r}: a partner applies to the waltz only "
+                         f"({', '.join(WALTZ_TEMPO_OF)})")
+    duration = waltz_duration(tempo, partner)
+    fast = tempo == "tempo" or partner.tempo_scale > 1.0
+    bars = "tempo" if fast else ("sway" if partner.sway is not None else "waltz")
+    return dataclasses.replace(
+        scenario, duration=duration, short_duration=min(scenario.short_duration, duration),
+        make_script=partial(waltz_script, tempo=tempo, partner=partner), bars=bars,
+        partner={"tempo": tempo, **partner.describe()})
 
 
 def scenario_named(name: str) -> Scenario:

@@ -29,6 +29,7 @@ from phri_sim.studies.leads import (
     followability_map,
     lead_scenario,
 )
+from phri_sim.world.actuators import DEFAULT_PLANT
 
 
 @dataclass(frozen=True)
@@ -48,16 +49,18 @@ SHORT_FORM = MapForm(SHORT_TIMING, HEADINGS_DEG, (0.05, 0.1), (0.1, 0.3))
 
 
 def run_lead(lead: Lead, profile: Profile, *, controller: str = "node",
-             seed: int = 0, base: str = "waltz") -> dict[str, Any]:
+             seed: int = 0, base: str = "waltz", plant: str = DEFAULT_PLANT) -> dict[str, Any]:
     """Metrics of one lead (``controller`` 'node' = the whole-body controller, 'stub' = a
-    motionless robot) from the hold of scenario ``base`` (its controller parameters)."""
+    motionless robot) from the hold of scenario ``base`` (its controller parameters) on
+    ``plant``."""
     return run_scenario(lead_scenario(lead, profile, base),
-                        RunOptions(duration=profile.duration, seed=seed, controller=controller))
+                        RunOptions(duration=profile.duration, seed=seed, controller=controller,
+                                   plant=plant))
 
 
 def run_map(form: MapForm = FULL_FORM, bars: Bars | None = None, *, controller: str = "node",
             seed: int = 0, progress: Callable[[Lead, dict[str, Any]], None] | None = None,
-            base: str = "waltz") -> dict[str, Any]:
+            base: str = "waltz", plant: str = DEFAULT_PLANT) -> dict[str, Any]:
     """The followability map (:func:`phri_sim.studies.leads.followability_map`) through the nodes,
     with the form, controller and CPU time it took."""
     bars = bars or Bars()
@@ -65,13 +68,13 @@ def run_map(form: MapForm = FULL_FORM, bars: Bars | None = None, *, controller: 
 
     def run(lead: Lead) -> dict[str, Any]:
         metrics = run_lead(lead, form.timing.profile(lead), controller=controller, seed=seed,
-                           base=base)
+                           base=base, plant=plant)
         if progress is not None:
             progress(lead, metrics)
         return metrics
 
     out = followability_map(run, bars, form.headings, form.speeds, form.turn_rates)
     out.update({"timing": vars(form.timing), "controller": controller, "seed": seed,
-                "scenario": base,
+                "scenario": base, "plant": plant,
                 "cpu_time": time.process_time() - cpu})
     return out

@@ -25,7 +25,9 @@ drift (3× the position bar, 9× the heading bar) or blocks it and builds force,
 pass is never a lead too small to tell.
 
 :func:`followability_map` searches, per lead direction, increasing speeds until the first one
-that fails the bars (:func:`lead_passes`); the fastest speed before it is "followed". The
+that fails the bars (:func:`lead_passes`); the fastest speed before it is "followed". Its tempo
+axis (:func:`waltz_peaks`) puts each in units of the waltz: a lead followed at v is as fast as
+the default waltz at ×v / 0.055 m/s (turns: ×ω / 0.13 rad/s), the peaks of its routine at ×1. The
 search takes the function that runs one lead, so it is tested without the simulator.
 """
 
@@ -40,7 +42,8 @@ from typing import Any
 import numpy as np
 
 from phri_sim.evaluation.following_metrics import Bars, check_bars
-from phri_sim.scenarios.catalogue import SCENARIOS, Scenario, Script
+from phri_sim.scenarios.catalogue import SCENARIOS, Partner, Scenario, Script, with_partner
+from phri_sim.scenarios.waltz_choreography import waltz_choreography
 from phri_sim.world.person_body import PartTarget
 from phri_sim.world.simulation import Simulation
 
@@ -198,22 +201,24 @@ def lead_script(lead: Lead, profile: Profile, base: Scenario) -> Callable[[Simul
 
 
 def lead_scenario(lead: Lead, profile: Profile, base: str = "waltz") -> Scenario:
-    """A scenario in which the partner of scenario ``base`` leads ``lead`` (module docstring)."""
-    sc = SCENARIOS[base]
+    """A scenario in which the partner of scenario ``base`` leads ``lead`` (module docstring;
+    the partner's hands parked)."""
+    sc = with_partner(SCENARIOS[base], Partner(hand=False))
     return dataclasses.replace(
         sc, name=lead.name, description=f"followability lead: {lead}",
         duration=profile.duration, short_duration=profile.duration,
-        make_script=lead_script(lead, profile, sc), metrics="waltz")
+        make_script=lead_script(lead, profile, sc), metrics="waltz", bars="paper",
+        partner={"lead": lead.name})
 
 
-def lead_passes(metrics: dict[str, Any], bars: Bars) -> dict[str, bool]:
+def lead_passes(metrics: dict[str, Any], bars: Bars) -> dict[str, bool | None]:
     """Whether one lead run stays within the bars:
     :func:`~phri_sim.evaluation.following_metrics.check_bars` on its ``following`` block, the ISO/TS
     15066 limits on every link and part, no limit violations."""
-    out = check_bars(metrics["following"], bars)
+    out: dict[str, bool | None] = dict(check_bars(metrics["following"], bars))
     out["iso15066"] = bool(metrics.get("iso15066", {}).get("ok", True))
     out["no_violations"] = metrics.get("limit_violations", 0) == 0
-    out["all"] = all(v for k, v in out.items() if k != "all")
+    out["all"] = all(v is not False for k, v in out.items() if k != "all")
     return out
 
 
@@ -258,8 +263,24 @@ def followability_map(run: RunLead, bars: Bars, headings: Sequence[float] = HEAD
     def turning(sign: float) -> Callable[[float], Lead]:
         return lambda w: Lead("turn", sign * w)
 
+    speed, rate = waltz_peaks()
     translate = [{"heading_deg": h, **search(translation(h), speeds, run, bars)}
                  for h in headings]
     turn = [{"direction": side, **search(turning(sign), turn_rates, run, bars)}
             for side, sign in (("left", 1.0), ("right", -1.0))]
-    return {"bars": dataclasses.asdict(bars), "translate": translate, "turn": turn}
+    for row in translate:
+        row["fastest_tempo_scale"] = row["fastest_followed"] / speed
+    for row in turn:
+        row["fastest_tempo_scale"] = row["fastest_followed"] / rate
+    return {"bars": dataclasses.asdict(bars), "translate": translate, "turn": turn,
+            "tempo_axis": {"peak_speed": speed, "peak_turn_rate": rate}}
+
+
+def waltz_peaks(tempo: str = "paper") -> tuple[float, float]:
+    """(peak planar speed [m/s], peak turn rate [rad/s]) of the waltz routine at ``tempo``, ×1:
+    the map's tempo axis (a lead followed at speed v is as fast as the waltz at ×v / peak)."""
+    chor = waltz_choreography(tempo, 0.0, 0.0)
+    ts = np.linspace(0.0, chor.duration, 20001)
+    poses = [chor.pose(float(t)) for t in ts]
+    return (max(float(np.linalg.norm(p[2])) for p in poses),
+            max(abs(p[3]) for p in poses))

@@ -8,7 +8,9 @@ velocity servos on its three planar joints, whose set points are the world rates
 
 and each arm joint follows its commanded velocity through a stiff velocity servo (scene.py),
 through the arm's own protective stop (:mod:`~phri_sim.world.protective_stop`: the UR stops itself
-on a collision, whatever link it is on).
+on a collision, whatever link it is on). Between
+the command and the servos sits :attr:`SimRobot.shaper` when set: the plant's drives
+(:class:`phri_sim.world.actuators.CommandShaper`: latency, ramps, lag), one call per physics step.
 
 Efforts (:meth:`SimRobot.efforts`): what each drive applies, as ``/joint_states`` ``effort``
 carries it — the base servos' force along odom x, y [N] and torque about the vertical [N·m], and
@@ -17,6 +19,8 @@ gravity-compensated in the model; a real UR's drive carries it, and RTDE's torqu
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import mujoco
 import numpy as np
@@ -63,6 +67,10 @@ class SimRobot:
         """Both arms' protective stops (the UR's own safety system)."""
         self.position_limits = description.position_limits()
         self.velocity_limits = description.velocity_limits()
+        self.shaper: Callable[[FloatArray], FloatArray] | None = None
+        """The plant's drives (:class:`phri_sim.world.actuators.CommandShaper`): the 15 commands
+        → the 15 servo set points of the next physics step; ``None`` = the servos follow the
+        commands at once (the ideal plant)."""
 
     @property
     def q(self) -> FloatArray:
@@ -99,7 +107,10 @@ class SimRobot:
 
     def drive(self, u: FloatArray) -> None:
         """Servo set points from the 15 commanded velocities ``u``: body twist [m/s, rad/s] turned
-        into world rates at the current yaw (module docstring), then the arm joints [rad/s]."""
+        into world rates at the current yaw (module docstring), then the arm joints [rad/s]; through
+        :attr:`shaper` when set (once per physics step)."""
+        if self.shaper is not None:
+            u = self.shaper(u)
         d = self.data
         yaw = float(d.qpos[self._yaw_qpos])
         ctrl = d.ctrl

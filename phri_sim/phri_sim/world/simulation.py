@@ -19,6 +19,10 @@ four parts, each in its own module:
   [rad/s]; stale → zero, NaN/Inf → refused, clipped to the robot's speed limits as the real drivers
   do.
 
+Between the watchdog and the servos sits the plant's drives (:attr:`Simulation.shaper`,
+:class:`~phri_sim.world.actuators.CommandShaper`; ``SimConfig.plant``: ``realistic`` by default,
+``ideal`` = none).
+
 :meth:`Simulation.step` advances one physics step (2 ms by default). The methods and properties
 below are the interface the bridge, the scenarios and the metrics use; each forwards to one part.
 """
@@ -34,6 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from phri_description.description import robot_description
+from phri_sim.world.actuators import DEFAULT_PLANT, CommandShaper, plant_named
 from phri_sim.world.command_watchdog import CommandError, CommandWatchdog
 from phri_sim.world.person_body import PERSON_PARTS, BodyPartSpec, PartTarget
 from phri_sim.world.person_drive import SimPerson
@@ -60,11 +65,15 @@ class SimConfig:
         skin: skin sensor model.
         command_timeout: watchdog timeout [s] of sim time.
         seed: seed of the skin sensor model (same seed → same run).
+        plant: the plant between commands and servos, a name of
+            :data:`phri_sim.world.actuators.PLANTS` (``realistic``: the drives' latency, ramps and
+            lag; ``ideal``: the servos follow every command at once).
     """
 
     skin: SkinConfig = field(default_factory=SkinConfig)
     command_timeout: float = 0.1
     seed: int = 0
+    plant: str = DEFAULT_PLANT
     timestep: float | None = None
     """Physics step [s]; ``None`` = the model's 2 ms (the 500 Hz skin sampling period). The
     lock-step runner, which samples the skin once per 10 ms control period, uses 5 ms: the arm
@@ -80,6 +89,7 @@ class SimConfig:
         ):
             raise ValueError(f"physics timestep must be in [{MIN_TIMESTEP}, {MAX_TIMESTEP}] s, "
                              f"got {self.timestep}")
+        plant_named(self.plant)
 
 
 class Simulation:
@@ -103,6 +113,9 @@ class Simulation:
         self.dt = float(self.model.opt.timestep)
         desc = robot_description()
         self.robot = SimRobot(self.model, self.data, desc, self.config.protective_stop)
+        self.plant = plant_named(self.config.plant)
+        self.shaper = CommandShaper(self.plant, self.dt) if self.plant.shapes_commands else None
+        self.robot.shaper = self.shaper
         self.person = SimPerson(self.model, self.data, parts)
         self.skins = SimSkins(self.model, self.data, desc.patches, self.config.skin,
                               self.config.seed, self.person.geom_part, self.robot)
@@ -129,10 +142,16 @@ class Simulation:
             self.robot.set_q(q)
         self.person.reset()
         self.watchdog = self._new_watchdog()
+        self._reset_drives()
         self.skins.reset_noise()
         mujoco.mj_forward(self.model, self.data)
         self.skins.invalidate()
         self.robot.protective_stop.reset()
+
+    def _reset_drives(self) -> None:
+        """The plant's drives at rest with no command, their clock at sim time 0."""
+        if self.shaper is not None:
+            self.shaper.reset()
 
     def settle(self, seconds: float) -> None:
         """Let the person come to rest against the robot before a run: step ``seconds`` [s]
@@ -152,6 +171,7 @@ class Simulation:
         self.data.time = 0.0
         self.person.restart_clock()
         self.watchdog = self._new_watchdog()
+        self._reset_drives()
         mujoco.mj_forward(self.model, self.data)
         self.skins.invalidate()
         self.robot.protective_stop.reset()  # what the pinned settling looked like is no collision
