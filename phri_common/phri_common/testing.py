@@ -26,7 +26,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
-from hypothesis import settings
+from hypothesis import Phase, settings
 
 from phri_common.params import ParamSpec, markdown_table, table_in
 
@@ -41,9 +41,12 @@ Every profile prints a failing example with its ``@reproduce_failure`` blob."""
 def register_hypothesis_profiles() -> None:
     """Register :data:`HYPOTHESIS_PROFILES` and load "ci" (each package's ``conftest.py``;
     ``--hypothesis-profile`` or ``HYPOTHESIS_PROFILE`` choose another)."""
+    # No "explain" phase: it traces every line of a failing example again (hypothesis' scrutineer),
+    # which turned one failure of a long equivalence test into a 300 s timeout on a busy machine.
+    phases = [p for p in Phase if p is not Phase.explain]
     for name, examples in HYPOTHESIS_PROFILES.items():
         settings.register_profile(name, max_examples=examples, derandomize=name == "ci",
-                                  deadline=None, print_blob=True)
+                                  deadline=None, print_blob=True, phases=phases)
     settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 
