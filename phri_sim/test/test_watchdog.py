@@ -14,6 +14,7 @@ import pytest
 from phri_description.description import robot_description
 from phri_sim.scenarios.catalogue import Q_HOME
 from phri_sim.world.command_watchdog import CommandError, CommandWatchdog
+from phri_sim.world.protective_stop import ProtectiveStopConfig
 from phri_sim.world.simulation import SimConfig, Simulation
 from phri_sim.world.skin_footprint import SkinConfig
 
@@ -85,7 +86,10 @@ def test_simulated_speeds_are_clipped_to_the_description_limits() -> None:
     a base turn and a shoulder commanded at 100 rad/s move at their limits (on the ideal plant,
     whose servos get there within the test's 0.2 s; the realistic plant ramps to the same
     limits: test_actuators.py)."""
-    sim = Simulation(SimConfig(skin=SkinConfig(noise_std=0.0), plant="ideal"))
+    # Without the arms' protective stop: a shoulder jumping to its speed limit in a few
+    # milliseconds is a collision to it (the test is about the watchdog's clip).
+    sim = Simulation(SimConfig(skin=SkinConfig(noise_std=0.0), plant="ideal",
+                               protective_stop=ProtectiveStopConfig(enabled=False)))
     sim.reset(np.array(Q_HOME))
     limits = robot_description().velocity_limits()
     assert limits[2] < 100.0 and limits[3] < 100.0  # base yaw, left shoulder pan

@@ -233,10 +233,14 @@ class ProtectiveStop:
         return np.asarray(c.force_limit * np.maximum(lever, c.min_lever))
 
     # -- the safety system ---------------------------------------------------------------------
-    def filter(self, side: str, command: FloatArray) -> FloatArray:
+    def filter(self, side: str, command: FloatArray, sent: FloatArray | None = None
+               ) -> FloatArray:
         """The servo set points of arm ``side`` for the next physics step: ``command`` (6 joint
-        velocities [rad/s]) while NORMAL, else the stop's ramp or hold. Observes the state of the
-        previous step first (call once per arm per physics step, in step order)."""
+        velocities [rad/s]) while NORMAL, else the stop's ramp or hold. ``sent``: the command as
+        the bridge sent it, before the plant's drives (default ``command``) — the re-arming rule
+        reads it, as phri_hardware's bridge reads the commands it receives, not the speedJ ramp
+        that follows them. Observes the state of the previous step first (call once per arm per
+        physics step, in step order)."""
         if not self.config.enabled:
             return np.asarray(command, dtype=np.float64)
         t = float(self.data.time)
@@ -247,7 +251,7 @@ class ProtectiveStop:
                 self._observe(arm, t)
         arm = self.arms[side]
         if arm.phase is StopPhase.DISARMED:
-            if np.max(np.abs(command)) <= self.config.rearm_velocity:
+            if np.max(np.abs(command if sent is None else sent)) <= self.config.rearm_velocity:
                 arm.phase = StopPhase.NORMAL
             else:
                 return np.zeros_like(command)

@@ -109,6 +109,7 @@ class SimRobot:
         """Servo set points from the 15 commanded velocities ``u``: body twist [m/s, rad/s] turned
         into world rates at the current yaw (module docstring), then the arm joints [rad/s]; through
         :attr:`shaper` when set (once per physics step)."""
+        sent = u
         if self.shaper is not None:
             u = self.shaper(u)
         d = self.data
@@ -117,8 +118,9 @@ class SimRobot:
         ctrl[self._act_x], ctrl[self._act_y] = base_to_world(yaw, float(u[0]), float(u[1]))
         ctrl[self._act_yaw] = u[2]
         stop = self.protective_stop
-        ctrl[self._act_arms] = np.concatenate([stop.filter(side, u[3 + 6 * i : 9 + 6 * i])
-                                               for i, side in enumerate(ARM_SIDES)])
+        ctrl[self._act_arms] = np.concatenate([
+            stop.filter(side, u[3 + 6 * i : 9 + 6 * i], sent[3 + 6 * i : 9 + 6 * i])
+            for i, side in enumerate(ARM_SIDES)])
 
     def efforts(self) -> FloatArray:
         """What each drive applied over the last physics step (15; module docstring): base x, y
