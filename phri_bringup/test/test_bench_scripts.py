@@ -1,4 +1,4 @@
-"""Every ``bench/`` script runs as documented from a fresh clone (issue 15, item 5).
+"""Every ``bench/`` script runs as documented from a fresh clone.
 
 Each script is started the way README.md shows, ``.venv/bin/python bench/<script>.py``, in a
 subprocess whose working directory is NOT the repository and whose environment has no
