@@ -43,7 +43,7 @@ probed as well: every frame it took and every contact state it published, by sta
 never received by the controller (and the bursts they were lost in), received but never
 published. The **pauses** line gives each probed process's full (generation-2) garbage
 collections and rclpy log calls inside the window, and the controller's longest cycle: the
-whole-process pauses that lost frames before ``phri_common.settle`` (README, "Drops").
+whole-process pauses that lost frames before ``phri_common.settle`` (docs/benchmarks.md).
 ``--save DIR`` keeps the raw records (.npz) for a closer look.
 
 Run: ``.venv/bin/python bench/bench_chain.py [--seconds 60] [--taxels 2000] [--boards 3]

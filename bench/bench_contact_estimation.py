@@ -1,4 +1,4 @@
-"""Benchmark: contact estimation per call (issue 15: 3 links × 2,000 taxels ≲ 15 µs, × 10,000 ≲ 45).
+"""Benchmark: contact estimation per call (target: 3 links × 2,000 taxels ≲ 15 µs, × 10,000 ≲ 45).
 
 Prints median and p99 for one link of 2,000 / 10,000 / 50,000 taxels, and for the full
 per-control-step work on 3 links: new forces for every patch + one batched estimate of all links

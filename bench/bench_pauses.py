@@ -8,7 +8,7 @@ In a fresh process holding the controller node (its imports: rclpy, numpy, numba
   warning: rclpy looks its caller up with ``inspect`` on every call, printed or not);
 
 once without :func:`phri_common.settle.settle` and once, in another fresh process, after it
-(what ``run_nodes`` now does). The README's "Drops" paragraph quotes this script.
+(what ``run_nodes`` now does). docs/benchmarks.md, "Pauses", quotes this script.
 
 Run: ``.venv/bin/python bench/bench_pauses.py [--repeat 5]``.
 """

@@ -1,8 +1,9 @@
 """Study: when following fails — the peak and held force per body part of the partner.
 
-The reviewer's cases of issue "Safe when following fails", through the real nodes in lock-step
-(``phri_sim.ros.runner``), each printed as the peak and the 0.5 s-sustained ("held") force per
-person body part and per robot link against ISO/TS 15066 (``metrics.json`` → ``iso15066``):
+The cases where following fails (docs/phri_sim.md, "Safe when following fails"), through the
+real nodes in lock-step (``phri_sim.ros.runner``), each printed as the peak and the
+0.5 s-sustained ("held") force per person body part and per robot link against ISO/TS 15066
+(``metrics.json`` → ``iso15066``):
 
 * ``waltz``: the default waltz at the paper tempo (also its band, drift, heading and peak force:
   the dance itself must not change);
@@ -22,8 +23,8 @@ the robot (``→robot``), along the contact normal [m/s]: a peak with the robot 
 partner moving is the partner walking into a standing robot, not a squeeze by the robot.
 
 Each case runs twice: ``before`` — a robot without either guard (the controller's
-``unsensed_guard`` off and the arms' simulated protective stop off: the robot of before this
-issue) — and ``after`` — both on (the defaults).
+``unsensed_guard`` off and the arms' simulated protective stop off: the robot before these
+guards) — and ``after`` — both on (the defaults).
 
 Run: ``.venv/bin/python bench/bench_pinch.py [--cases waltz_x2 wrist_walk] [--out DIR]
 [--jobs 2] [--only before|after]``; each run's metrics go to ``DIR/<case>_<variant>.json`` and a

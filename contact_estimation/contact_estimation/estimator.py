@@ -364,8 +364,8 @@ class ContactEstimator:
         The patch's first frame (after construction or :meth:`forget_geometry`) sets its
         geometry; a later frame with another taxel count or weighting is refused
         (:class:`GeometryMismatch`), and so is one with other positions, normals or weights
-        unless ``check_geometry=False``, which skips that comparison (two array comparisons,
-        ~25 µs for 2,000 taxels). The refusals (NaN/Inf anywhere,
+        unless ``check_geometry=False``, which skips that comparison (two array comparisons;
+        cost: docs/benchmarks.md, "Contact estimation"). The refusals (NaN/Inf anywhere,
         forces beyond ``max_taxel_force``, an empty cloud) apply to every frame either way,
         except that geometry arrays that are the very objects of the patch's last taken frame
         (read-only, so unchanged) are not checked again (:meth:`_take_geometry`).

@@ -128,8 +128,8 @@ PARAMS: list[ParamSpec] = [
 
 TAXEL_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
 """skin/<patch>/taxels: best effort (sensor data; matches the drivers' reliable writers). A
-reliable reader acknowledges every message: ≈ 30 µs of this node's CPU per frame at 500 Hz
-(bench/bench_contact_estimation_ros.py), for a repair that only a lost frame would need and
+reliable reader acknowledges every message, CPU of this node on every frame at 500 Hz
+(docs/benchmarks.md, "Contact estimation"), for a repair that only a lost frame would need and
 that would arrive after the next frame anyway."""
 STATE_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 """contacts/<link>: reliable, for a reliable reader (a recorder); the controller reads them best

@@ -91,7 +91,7 @@ class DeadRegionDetector:
     """Silent taxels per patch (module docstring, "Dead region").
 
     Per frame: one comparison with the previous frame and one with the silence deadline over
-    the patch's taxels (≈ 5 µs for 2,000 taxels).
+    the patch's taxels (cost: docs/benchmarks.md, "Contact estimation").
     """
 
     def __init__(self, config: PlausibilityConfig) -> None:

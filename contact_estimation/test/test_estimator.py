@@ -365,7 +365,7 @@ def test_geometry_check_can_be_skipped_but_a_new_taxel_count_is_always_caught() 
         est.update("p", taxels(moved[:30], normals[:30], np.ones(30)), check_geometry=False)
 
 
-# --- refusals on every frame (issue 11, deliverable 4) -------------------------------------
+# --- refusals on every frame ---------------------------------------------------------------
 
 
 def _f32(positions: np.ndarray, normals: np.ndarray, forces: np.ndarray) -> TaxelArray:

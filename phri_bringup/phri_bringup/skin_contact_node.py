@@ -7,7 +7,8 @@ deliver, deserialise, one executor dispatch: most of the estimation node's CPU p
 frame straight to the estimator (``SkinDriverNode.add_frame_listener`` →
 ``ContactEstimationNode.on_frame``), which publishes the contact states exactly as the separate
 node does. One thread reads every driver's port (``skin_driver.transport.PortPoller``): three
-serial threads waking per frame and contending for the GIL cost ≈ 50 µs more per frame. The
+serial threads waking per frame and contending for the GIL cost more per frame
+(docs/benchmarks.md, "Skin driver"). The
 taxel topics are still published, at each driver's ``taxel_publish_rate_hz``
 (for rviz, recording and diagnostics tools); the estimator does not subscribe to them
 (``subscribe_taxels`` is false).

@@ -2,7 +2,7 @@
 
 phri carries structured records (taxels, contact states) in PointCloud2 so that every ROS tool
 understands them (design §3). These helpers build the field list and view ``data`` as a numpy
-structured array without copying (``np.frombuffer``); list conversions would cost hundreds of µs.
+structured array without copying (``np.frombuffer``); list conversions would be far slower.
 """
 
 from __future__ import annotations
@@ -56,7 +56,7 @@ def cloud_dtype(msg: PointCloud2) -> np.dtype:
     """Structured dtype (with padding to ``point_step``) described by a message's fields.
 
     Cached per field layout: every frame of a stream has the same layout, and building a numpy
-    dtype costs ~100 µs.
+    dtype is slow next to the decoding itself.
     """
     if msg.is_bigendian:
         raise CloudFormatError("big-endian PointCloud2 is not supported")

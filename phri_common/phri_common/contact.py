@@ -72,7 +72,7 @@ def contact_data(state: ContactState) -> bytes:
 
 
 def contact_to_msg(state: ContactState) -> PointCloud2:
-    """Encode a :class:`ContactState` as a one-point PointCloud2 (≈ 10 µs: no numpy)."""
+    """Encode a :class:`ContactState` as a one-point PointCloud2 (no numpy: cheaper per call)."""
     data = contact_data(state)
     msg = PointCloud2(
         header=Header(stamp=ns_to_stamp(state.stamp_ns), frame_id=state.link),

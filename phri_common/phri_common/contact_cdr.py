@@ -1,9 +1,9 @@
 """Contact states straight from their serialized (CDR) bytes: the controller's cheap input path.
 
 rclpy turns every received PointCloud2 into Python objects, one ``PointField`` per field: for a
-contact state (17 fields, 125 bytes of data) that costs about five times the decoding itself
-(≈ 44 µs against ≈ 9 µs, ``bench/bench_controller.py``'s machine), 1,500 times a second in the
-controller. A subscription with ``raw=True`` hands over the bytes instead;
+contact state (17 fields, 125 bytes of data) that costs several times the decoding itself,
+1,500 times a second in the controller (docs/benchmarks.md, "Controller node"). A subscription
+with ``raw=True`` hands over the bytes instead;
 :func:`contact_from_cdr` reads phri's own layout (:func:`phri_common.contact.contact_to_msg`)
 from them directly and returns ``None`` for anything else, which the caller then deserializes
 and decodes with :func:`phri_common.contact.msg_to_contact`, the reference: same state, same
@@ -63,7 +63,7 @@ def layout_template(fields: tuple[PointField, ...] | list[PointField],
 
 class Template:
     """A fixed byte sequence with don't-care (padding) bytes, compared as masked integers: one
-    ``int.from_bytes`` and an ``&`` (≈ 0.5 µs) instead of numpy's per-call overhead (≈ 6 µs)."""
+    ``int.from_bytes`` and an ``&``, far below numpy's per-call overhead."""
 
     __slots__ = ("mask", "size", "value")
 

@@ -2,8 +2,8 @@
 
 Why not an executor timer: with rclpy 9.1's events executor every timer tick and every input
 message is one event — a C++ → Python round trip with two thread wake-ups — and at 500 Hz with
-five inputs that alone cost ≈ 20 % of a core before any work (``bench/bench_controller.py``,
-"control loop"). A loop that sleeps to its next deadline and reads its inputs itself
+five inputs those events alone cost a large share of a core before any work (docs/benchmarks.md,
+"Controller node"). A loop that sleeps to its next deadline and reads its inputs itself
 (:mod:`phri_common.polled`) wakes once per period, as ros2_control's update loop does.
 
 Deadlines are absolute (``start + k·period``), so lateness does not accumulate; a cycle that

@@ -2,7 +2,8 @@
 
 A control loop that uses only the latest inputs at each cycle gains nothing from being woken
 for every message: with rclpy 9.1's events executor each message is an event (a C++ → Python
-round trip and two thread wake-ups), ≈ 25–35 µs of CPU outside the callback. A
+round trip and two thread wake-ups) of CPU outside the callback (docs/benchmarks.md,
+"Controller node"). A
 :class:`PolledSubscription` is an ordinary subscription of the node in rcl and DDS — same topic
 name resolution and remapping, same QoS, listed by ``ros2 node info`` — that is not registered
 with the node's executor: messages wait in the reader's queue (``qos.depth`` of them) until

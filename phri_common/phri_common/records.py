@@ -117,8 +117,8 @@ class ContactState:
     def from_frozen_row(cls, link: str, stamp_ns: int, in_contact: bool, row: Vector3,
                         taxel_count: int) -> ContactState:
         """As :meth:`from_row` for a ``row`` the caller guarantees to be a float64 array of
-        shape (15,) that nothing can write (:func:`is_frozen`); not checked (the check costs
-        about 1 µs, a third of the state): the estimator's path, once per link and estimate."""
+        shape (15,) that nothing can write (:func:`is_frozen`); not checked (the check would cost
+        a third of the state): the estimator's path, once per link and estimate."""
         state = object.__new__(cls)
         _SET(state, "link", link)
         _SET(state, "stamp_ns", stamp_ns)

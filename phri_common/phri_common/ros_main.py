@@ -5,24 +5,23 @@ Executor. ``PHRI_EXECUTOR`` picks it per process: ``events`` (default,
 ``SingleThreadedExecutor``). Measured with rclpy 9.1.2 from the Kilted wheels (docs/interfaces.md
 "Processes and executor"; ``bench/bench_executor.py``):
 
-* ``EventsExecutor.spin()`` (the blocking C++ loop) busy-loops at 50–100 % of a core whether or
-  not a node owns a timer, runs no timer callback, and never returns to Python, so Python signal
+* ``EventsExecutor.spin()`` (the blocking C++ loop) busy-loops whether or not a node owns a
+  timer, runs no timer callback, and never returns to Python, so Python signal
   handlers never run and SIGINT/SIGTERM are ignored (only SIGKILL ends the process).
 * ``EventsExecutor.spin_once(timeout_sec=0.1)`` in a Python loop does none of that: timers fire
-  on time (a 500 Hz timer: 499 callbacks/s), the process idles at ≈ 0 %, other Python threads
+  on time (a 500 Hz timer: 499 callbacks/s), the process idles, other Python threads
   keep the GIL, and the signal handlers run between calls (≤ 0.1 s to stop).
 * Driven that way it costs a third to a half of the single-threaded executor's CPU for the same
-  callbacks (a 500 Hz timer: 9 % against 21 % of a core; the estimation node per frame
-  delivered: about half), and every node's tests pass with it (timers, subscriptions,
-  services, parameter services).
+  callbacks (docs/benchmarks.md, "Executors"), and every node's tests pass with it (timers,
+  subscriptions, services, parameter services).
 
 * ``spin_once`` runs exactly one callback per call (a node with a 500 Hz timer and five
   500 Hz subscriptions: 3,000 Python → C++ → Python round trips a second).
   ``spin_until_future_complete(future, timeout_sec=0.1)`` with a future that never completes
   runs the same loop in C++ for 0.1 s (``run_for``): every callback in that slice, timers on
   time, the GIL released while it waits, and it returns to Python after 0.1 s. The controller
-  node at 500 Hz with its five inputs: about 8–10 points of a core less than ``spin_once``
-  (``bench/bench_controller.py --node-only --loop``).
+  node at 500 Hz with its five inputs costs less CPU than with ``spin_once``
+  (``bench/bench_controller.py --node-only --loop``; docs/benchmarks.md, "Executors").
 
 * But a slice ends by its timeout only while the executor keeps up: when callbacks outlast
   their periods (a callback always due), the events executor never leaves the slice (measured:
@@ -139,9 +138,9 @@ def timer_callback(callback: Callable[[], object]) -> Callable[[], None]:
     """``callback`` for ``create_timer``, with its (empty) signature attached.
 
     rclpy 9.1.2's EventsExecutor calls ``inspect.signature`` on a timer's callback at every
-    call (to pass a ``TimerInfo`` to callbacks that ask for one); for a bound method that costs
-    ≈ 10 µs, for a function carrying ``__signature__`` ≈ 3 µs (a 500 Hz timer: 0.4 % of a
-    core saved). The returned function takes no argument, as the executor then sees.
+    call (to pass a ``TimerInfo`` to callbacks that ask for one), which costs less for a
+    function carrying ``__signature__`` than for a bound method (docs/benchmarks.md,
+    "Executors"). The returned function takes no argument, as the executor then sees.
     """
 
     def call() -> None:
@@ -175,8 +174,8 @@ def run_nodes(
     Before the nodes are made and again once they exist, :func:`phri_common.settle.settle`
     moves start-up's objects out of the garbage collector's way and fills the cache rclpy's
     logger looks callers up in (the one-off pauses that cost the chain its dropped frames;
-    README, "Drops"); the first call, before any node thread or port reader runs, takes the
-    bulk of it.
+    docs/benchmarks.md, "End to end"); the first call, before any node thread or port reader
+    runs, takes the bulk of it.
 
     A ``ValueError`` while creating the executor or the nodes (e.g. a refused parameter) is
     printed with the node name and gives exit code 2 instead of a traceback.
@@ -207,7 +206,7 @@ def run_nodes(
             return 2
         for node in nodes:
             executor.add_node(node)
-        settle()  # the nodes' own objects (≈ 25 ms where the whole start-up took ≈ 80)
+        settle()  # the nodes' own objects (cheap after the first call: docs/benchmarks.md)
         spinner = SliceSpinner(executor)
         spinner.spin_until(lambda: stop or failed(nodes) is not None)
         failure = failed(nodes)

@@ -55,7 +55,7 @@ class TaxelCloudEncoder:
     """Encoder for a patch whose geometry is fixed: only the force column changes per frame.
 
     Pre-packs positions, normals and weights once; :meth:`encode` writes the forces into the
-    buffer and hands ``bytes`` to the message (design §5: list conversions cost hundreds of µs).
+    buffer and hands ``bytes`` to the message (design §5: list conversions are far slower).
     """
 
     def __init__(
@@ -115,7 +115,8 @@ class TaxelCloudEncoder:
             is_dense=True,
         )
         # Assigned after construction: the constructor's keyword path validates the sequence
-        # element by element (≈150 µs for 10,000 taxels), the setter takes bytes in ≈7 µs.
+        # element by element; the setter takes the bytes as they are (docs/benchmarks.md,
+        # "Skin driver").
         msg.data = self._records.tobytes()
         return msg
 

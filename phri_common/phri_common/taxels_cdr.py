@@ -5,7 +5,8 @@ with ``raw=True`` hands over the bytes; :func:`taxels_from_cdr` reads phri's own
 layouts (:class:`phri_common.taxels.TaxelCloudEncoder`, with or without the weight column) as
 read-only views of those bytes, and returns ``None`` for any other layout, which the caller
 deserializes and decodes with :func:`phri_common.taxels.msg_to_taxels`, the reference. This
-skips rclpy's message objects and the copy of the data into them (≈ 40 µs for 2,000 taxels).
+skips rclpy's message objects and the copy of the data into them (cost: docs/benchmarks.md,
+"Contact estimation").
 """
 
 from __future__ import annotations

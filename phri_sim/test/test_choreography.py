@@ -29,7 +29,7 @@ def _turns(headings: np.ndarray) -> tuple[float, float]:
 
 @pytest.mark.parametrize("name", sorted(TEMPOS))
 def test_routine_turns_a_full_turn_each_way_and_travels_three_metres(name: str) -> None:
-    """Issue 14's figure bars: ≥ 360° of turn each way and ≥ 3 m of torso travel, at both
+    """The figure bars: ≥ 360° of turn each way and ≥ 3 m of torso travel, at both
     tempos, in 3/4 time (a whole number of bars)."""
     tempo = TEMPOS[name]
     beats = routine(tempo)

@@ -1,17 +1,17 @@
 """Every sensor fault on the waltz (short form: the hold and the first step, the fault at 5 s, a few
-seconds after it) through the real nodes: what issue 11 asks of the stack after each fault.
+seconds after it) through the real nodes: what the safety layer must do after each fault.
 
 Each fault runs once per module (:func:`runs`); one test checks that the fault really reached the
 sensor stream (the wiring), another what the robot did. The behaviour tests of ``skin_blind`` and
-``joint_jump`` need the controller side of issue 11 (contact-gated desired force, refusing
+``joint_jump`` need the safety layer's controller side (contact-gated desired force, refusing
 out-of-range joints). Measured before it (seed 1): blinded waltz — waist 128 N peak, 122 N held
 0.5 s (abdomen: 110 N quasi-static), base travel 0.26 m in the 6 s after the fault, never stops;
 joint jump — the faulted period commands 0.15 rad/s (the speed limit) instead of zero. With it:
 the blinded robot stops 2.0 s after the fault (regain_time) at 65 N, 0.09 m of base travel; the
 joint jump costs exactly one zero period.
 
-The faults run on ``waltz_paper`` (the waltz with the paper's literal set, on which issue 11's
-safety layer was built and measured). On the default waltz set (issue 14: ±0.03 rad q_dance band,
+The faults run on ``waltz_paper`` (the waltz with the paper's literal set, on which the
+safety layer was built and measured). On the default waltz set (±0.03 rad q_dance band,
 D = 100 N·s/m) the blinded robot's regain motion stops 1.5 s after the fault, but the partner,
 dancing on, kept the left shoulder lift and elbow ≈ 1 mrad past the narrow band and the QP's
 band constraint (22) pulled them back: the command was never exactly zero. Since the skin's
@@ -38,8 +38,8 @@ PERIOD = 0.01
 """The waltz's control period [s]."""
 AFTER = {"skin_blind": 6.0, "skin_stuck": 4.0, "force_spike": 2.0, "joint_jump": 2.0}
 """How long each run goes on after the fault [s]: the blinded robot needs about 5 s to press its
-10 N open-loop preload past the abdomen's 110 N (0.05 m/s into the 600 N/m torso), and issue 11's
-regain budget is 2 s."""
+10 N open-loop preload past the abdomen's 110 N (0.05 m/s into the 600 N/m torso), and the safety
+layer's regain budget is 2 s."""
 
 Runs = Callable[[str], dict[str, Any]]
 
@@ -85,7 +85,7 @@ def test_the_fault_reaches_the_sensor_stream_at_its_time(runs: Runs, fault: str,
 
 @pytest.mark.ros
 def test_blinded_skin_keeps_the_person_safe_and_stops_the_robot(runs: Runs) -> None:
-    """Issue 11: a skin that reads nothing is a fault — the robot may move to regain contact
+    """A skin that reads nothing is a fault — the robot may move to regain contact
     only within a bounded distance and time (e.g. 0.15 m / 2 s), then stops; the person is never
     pushed past the abdomen's limits."""
     m = runs("skin_blind")

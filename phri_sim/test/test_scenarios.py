@@ -26,10 +26,10 @@ gives the full-length numbers), with margin for other seeds:
   transient, force held 0.5 s ≤ quasi-static; docs/phri_sim.md, "Body-region limits").
 
 The runs are on the ideal plant (servos that follow every command at once): these thresholds
-pin the present controller's behaviour, which on the realistic plant (the default since issue
-14) does not hold the waltz's hold. The realistic plant's numbers are the tempo ladder's
-(``phri ladder``, docs/phri_sim.md "Tempo ladder"); the controller work of issue 14 moves these
-tests onto it.
+pin the present controller's behaviour, which on the realistic plant (the default) does not
+hold the waltz's hold. The realistic plant's numbers are the tempo ladder's (``phri ladder``,
+docs/phri_sim.md "Tempo ladder"); these tests move onto it once the controller holds the waltz
+there.
 """
 
 from __future__ import annotations
@@ -93,8 +93,8 @@ def test_whole_body_touches_and_yields(ros_context: Any) -> None:
 
 
 WALTZ_HEADING_MAX = 10.0
-"""Bar of the CI waltz on the partner's heading drift in the robot frame [deg] (issue 14's bar;
-runs: 5.5°; the paper's literal set: 57°)."""
+"""Bar of the CI waltz on the partner's heading drift in the robot frame [deg] (the following
+bar; runs: 5.5°; the paper's literal set: 57°)."""
 
 
 @pytest.mark.ros

@@ -1,5 +1,5 @@
-"""Pinch: the partner walks into a link no skin covers, through the real nodes (issue "Safe when
-following fails").
+"""Pinch: the partner walks into a link no skin covers, through the real nodes (docs/phri_sim.md,
+"Safe when following fails").
 
 Two leads of the waltz hold (``phri_sim.studies.leads``), each faster than the robot follows:
 

@@ -2,8 +2,8 @@
 
 The same arithmetic as :class:`~skin_driver.calibration.PatchCalibrator`'s numpy path (the
 reference and the tests' oracle, ``test_frame_calibration.py``), in two passes over the taxels
-instead of about thirty numpy operations, each a pass and an allocation (≈ 85 µs for a
-2,000-taxel frame against a few µs here):
+instead of about thirty numpy operations, each a pass and an allocation (cost of each:
+docs/benchmarks.md, "Skin driver"):
 
 * :func:`calibrate_counts` — step 1 ``f = gain · (c − offset)`` [N], the saturation count, the
   stuck-taxel clock, the moving average (its ring buffer and running sum) and, while taring, the

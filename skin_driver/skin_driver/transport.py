@@ -17,8 +17,8 @@ URLs (``socket://``, ``loop://``) go through pyserial's ``read``.
 Several readers in one process (the composed ``skin_contact_node``) can share a
 :class:`PortPoller`: one thread then ``select``s over every open POSIX port and hands each
 chunk on, while each reader's own thread only opens, waits and reconnects. Three reader threads
-waking per frame and contending for the GIL cost ≈ 50 µs more per 2,000-taxel frame than one
-thread serving all three (measured in-process, same frames and arrival times).
+waking per frame and contending for the GIL cost more per frame than one thread serving all
+three (docs/benchmarks.md, "Skin driver").
 """
 
 from __future__ import annotations

@@ -252,7 +252,7 @@ def test_a_real_long_frame_arriving_in_pieces_is_not_abandoned() -> None:
     assert parser.stats.false_lengths == 0 and parser.stats.errors == 0
 
 
-# --- work linear in the bytes read (issue "Safe when following fails", deliverable 5) -------
+# --- work linear in the bytes read -----------------------------------------------------------
 
 WORK_PER_BYTE = 8
 """Bound on ``stats.checked_bytes`` / ``stats.bytes_in``: the running CRC passes each byte once,

@@ -1,4 +1,4 @@
-"""The controller node's input boundary, cycle by cycle (issue 11): physically impossible inputs
+"""The controller node's input boundary, cycle by cycle: physically impossible inputs
 are refused (zero command, a clear error) and the next good message recovers; a failed QP never
 wedges the controller; under fuzzed inputs no command is ever non-finite or over the limits.
 

@@ -1,6 +1,6 @@
-"""The controller node against contacts no skin feels (issue "Safe when following fails"): it
-reads the arms' efforts from ``/joint_states``, stops the base and backs the arm off along an
-unexplained torque, says so on ``/diagnostics`` at once, and commands again once it is gone.
+"""The controller node against contacts no skin feels: it reads the arms' efforts from
+``/joint_states``, stops the base and backs the arm off along an unexplained torque, says so on
+``/diagnostics`` at once, and commands again once it is gone.
 
 The node runs on a hand-driven clock; its callbacks and ``tick`` are called directly, so every
 assertion is about one precise control period. Efforts are what the arms would report at rest:

@@ -1,4 +1,4 @@
-"""The controller and a UR's speed scaling (issue 25): the teach pendant's speed slider scales a
+"""The controller and a UR's speed scaling: the teach pendant's speed slider scales a
 UR's joint speeds but not the base, so the node reads each arm's scaling on ur_robot_driver's topic
 (``<arm>/speed_scaling_state_broadcaster/speed_scaling``, Float64 in percent) and, after the step,
 commands every axis so that all move at the slowest arm's fraction; below ``min_speed_scaling`` it

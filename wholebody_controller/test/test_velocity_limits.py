@@ -1,4 +1,4 @@
-"""Per-axis velocity limits (issue 14, `tempo` waltz): each axis of the QP (22) keeps its own bound
+"""Per-axis velocity limits (for the `tempo` waltz): each axis of the QP (22) keeps its own bound
 min(robot's own, ``velocity_limit``, ``velocity_limits[k]``); bad values are refused by name."""
 
 from __future__ import annotations

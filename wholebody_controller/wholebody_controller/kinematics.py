@@ -18,7 +18,7 @@ without the ᶦṗ_η term (the contact centre's own motion on the skin is not d
 
     ⁰ṗ_η = [⁰ω_i]× ⁰R_i ᶦp_η + J_p,γi q̇    (8, ᶦṗ_η = 0)
 
-Cost (design §5): ``update`` + 3 ``point_jacobian`` ≈ a few µs; the hot path reuses buffers
+Cost: docs/benchmarks.md, "Kinematics"; the hot path reuses buffers
 (pass ``out=`` to the Jacobian functions to avoid even the result allocation).
 """
 

@@ -181,8 +181,8 @@ class WholeBodyControllerNode(Node):
 
     def _node_clock_ns(self) -> Callable[[], int]:
         """The node clock [ns]: the control thread runs on the wall clock, which is what the
-        node clock reads without simulation time, read directly (≈ 0.1 µs instead of ≈ 3–6 µs
-        per read, six a cycle); the timer mode reads the node clock (``/clock`` under
+        node clock reads without simulation time, read directly (far cheaper than rclpy's clock,
+        six reads a cycle); the timer mode reads the node clock (``/clock`` under
         ``use_sim_time``)."""
         if self.control_loop == "thread":
             return time.time_ns

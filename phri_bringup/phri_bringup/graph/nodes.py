@@ -209,10 +209,10 @@ SKIN_PROCESSES: tuple[str, ...] = ("composed", "separate")
 """How the real robot runs its skin drivers and contact estimation: ``composed`` = one
 ``skin_contact_node`` process (drivers hand frames to the estimator directly, taxel topics at
 ``taxel_rate_hz``), ``separate`` = one process per driver and one for the estimator (every frame
-crosses DDS). ``bench/bench_chain.py`` measures both (README, Benchmarks)."""
+crosses DDS). ``bench/bench_chain.py`` measures both (docs/benchmarks.md, "End to end")."""
 DEFAULT_SKIN_PROCESS = "composed"
 """real.launch.py's ``skin_process`` default: the composed process dropped fewer frames with
-less CPU and lower latency in every ``bench_chain.py`` series (README, Benchmarks)."""
+less CPU and lower latency in every ``bench_chain.py`` series (docs/benchmarks.md, "End to end")."""
 DEFAULT_TAXEL_RATE_HZ = 50.0
 """real.launch.py's ``taxel_rate_hz`` default [Hz]: each patch's taxel topic in the composed
 process (rviz, recording, diagnostics tools; the estimator gets every frame directly)."""

@@ -35,8 +35,8 @@ From the **start of the hold** (the first sample where the leading link is touch
   1 Hz, the time the base takes to rest after each stop of the partner.
 
 :func:`check_bars` holds a summary against bars (:class:`Bars`): :data:`PAPER_TEMPO_BARS` the
-pose and force bars of issue 14 (the followability map's), :data:`WALTZ_BARS` all of the default
-waltz's, :data:`TEMPO_BARS` those of the faster rungs, :data:`SWAY_BARS` those with sway.
+pose and force bars at the paper tempo (the followability map's), :data:`WALTZ_BARS` all of the
+default waltz's, :data:`TEMPO_BARS` those of the faster rungs, :data:`SWAY_BARS` those with sway.
 """
 
 from __future__ import annotations
@@ -61,7 +61,7 @@ TURN_BAR_MIN_DEG = 30.0
 
 @dataclass(frozen=True)
 class Bars:
-    """Following bars (issue 14) and the force band. A bar set to ``None`` is not checked.
+    """Following bars and the force band. A bar set to ``None`` is not checked.
 
     Attributes:
         band_low: lower edge of the waist force band [N].
@@ -118,12 +118,12 @@ class Bars:
 
 
 PAPER_TEMPO_BARS = Bars()
-"""The pose and force bars of issue 14 at the paper tempo (the followability map's)."""
+"""The pose and force bars at the paper tempo (the followability map's)."""
 RATED_BASE_ACCELERATION = BaseDrive().acceleration
 """The base's rated accelerations (the realistic plant's, :mod:`phri_sim.world.actuators`)."""
 WALTZ_BARS = replace(PAPER_TEMPO_BARS, turning_lag_max=0.25, force_fluctuation_max=0.3,
                      command_acceleration_max=RATED_BASE_ACCELERATION, rest_time_max=1.0)
-"""Every bar of the default waltz (issue 14, deliverable 5): band ≥ 98 %, drift ≤ 5 cm RMS /
+"""Every bar of the default waltz: band ≥ 98 %, drift ≤ 5 cm RMS /
 10 cm max, heading ≤ 10°, peak ≤ 40 N, turning lag ≤ 0.25 s, waist force above 1 Hz ≤ 0.3 N
 RMS, commanded base acceleration p99 ≤ the rated, at rest within 1 s of the partner stopping."""
 TEMPO_BARS = Bars(band_share_min=None, heading_drift_max_deg=15.0, position_drift_rms=0.08,

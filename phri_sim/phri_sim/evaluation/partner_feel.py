@@ -54,7 +54,7 @@ PARTNER_STILL_RATE = 0.02
 MIN_STOP = 2.0
 """A still stretch of the partner this long is a stop (F12) [s]."""
 REST_SPEED = 0.002
-"""The robot base is at rest below this planar speed (F12; issue 14's 2 mm/s) [m/s]."""
+"""The robot base is at rest below this planar speed (2 mm/s; F12) [m/s]."""
 REST_RATE = 0.005
 """… and below this yaw rate (2 mm/s at 0.4 m, the base's half width; F12) [rad/s]."""
 MIN_REST = 0.5
@@ -150,9 +150,10 @@ def high_pass(times: FloatArray, signal: FloatArray, cutoff: float = FLUCTUATION
               ) -> FloatArray:
     """The part of ``signal`` above ``cutoff`` [Hz] (F11): the line through its first and last
     samples removed, then an 8th-order Butterworth high-pass run forwards and backwards (zero
-    phase; amplitude 0.5 at the cutoff, 0.82 at 1.1×, 0.998 at 1.5×: sharp enough for the loop
-    oscillations of issue 14 at 1.0–1.7 Hz, where a 4th-order skirt lost 4 % at 1.5 Hz, while
-    its ringing after a step stays local — a sharp Fourier cut spread it over the whole run)."""
+    phase; amplitude 0.5 at the cutoff, 0.82 at 1.1×, 0.998 at 1.5×: sharp enough for the
+    control-loop oscillations measured at 1.0–1.7 Hz, where a 4th-order skirt lost 4 % at 1.5 Hz,
+    while its ringing after a step stays local — a sharp Fourier cut spread it over the whole
+    run)."""
     from scipy.signal import butter, sosfiltfilt
 
     dt = _period(times)

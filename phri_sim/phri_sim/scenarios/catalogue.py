@@ -537,7 +537,7 @@ WALTZ_PARAMS = {
 :mod:`wholebody_controller.following`, and commands within the robot's rated accelerations."""
 
 WALTZ_TEMPO_BASE_LIMITS = (0.5, 0.5, 1.0)
-"""The mecanum base's own speed limits for the `tempo` waltz (issue 14): x, y 0.5 m/s, yaw
+"""The mecanum base's own speed limits for the `tempo` waltz: x, y 0.5 m/s, yaw
 1.0 rad/s."""
 WALTZ_TEMPO_VELOCITY_LIMITS: tuple[float, ...] = (
     *WALTZ_TEMPO_BASE_LIMITS,

@@ -3,7 +3,7 @@
 The hand is a sphere pulled by the spring–damper of :mod:`phri_sim.world.person_body` (stiffness
 K_h) to a scripted target. At rest against a surface its contact force equals the spring force, so a
 target placed δ = F/K_h inside the *touching* position presses with F. A target fixed in the world
-loses its force as the robot yields (issue 12: 15 N scripted, 0.7 N after 4 s); a person keeps
+loses its force as the robot yields (measured: 15 N scripted, 0.7 N after 4 s); a person keeps
 pushing. :class:`ForceHand` therefore places the target relative to the link's *current* surface::
 
     p_target(t) = p_s(t) + n̂(t) · (r_h + g(t) − F(t) / K_h)                       [m]

@@ -5,7 +5,7 @@ choreography, all drawn once from ``numpy.random.default_rng(SEED)``, so the sam
 same partner:
 
 * **postural sway**: a standing person's body moves ±1 cm and ±2° at 0.3–1.5 Hz (quiet-stance
-  sway; issue 14 measured the present robot losing the hold with it): in the dancer's own frame
+  sway; the robot was measured losing the hold with it): in the dancer's own frame
   (forward, left) and in heading, each a sum of :attr:`Sway.components` sines of seeded
   frequency in :attr:`Sway.band` and phase, scaled so the sum never exceeds the amplitude;
 * **hesitations**: every 8–20 s of the dance the partner's clock slows smoothly to a halt and

@@ -1,7 +1,7 @@
 """Unscripted leads: figures the waltz does not script, led from the waltz's hold (pure, no rclpy).
 
-Issue 14 measured the present robot failing every turn in place or about a pivot, losing the
-hold to a partner backing away at 0.1 m/s and failing a quick 0.3 m box. Each
+The robot was measured failing every turn in place or about a pivot, losing the hold to a
+partner backing away at 0.1 m/s and failing a quick 0.3 m box. Each
 :class:`UnscriptedLead` is a sequence of :class:`Leg` s that move the whole partner rigidly
 (every part's t = 0 target of the ``waltz`` hold, the hands parked), each leg with the speed
 profile (L1) of :class:`~phri_sim.studies.leads.Profile` (cosine ramps, full speed between):
@@ -14,7 +14,7 @@ profile (L1) of :class:`~phri_sim.studies.leads.Profile` (cosine ramps, full spe
   [rad/s] (sign = direction, + left).
 
 The rigid motion after leg k is p ↦ R(θ_k) p + d_k; a turn about c by φ maps it to
-R(φ + θ_k) p + c + R(φ)(d_k − c). :data:`UNSCRIPTED_LEADS` holds the figures of the issue; each is
+R(φ + θ_k) p + c + R(φ)(d_k − c). :data:`UNSCRIPTED_LEADS` holds these figures; each is
 a scenario (:func:`unscripted_scenario`) judged by the default waltz's bars, every lead ending
 with the partner standing still (the time-to-rest bar).
 """
@@ -197,6 +197,6 @@ UNSCRIPTED_LEADS: dict[str, UnscriptedLead] = {lead.name: lead for lead in (
                    tuple(Leg("translate", 0.15, 0.3, heading_deg=h)
                          for h in (0.0, 90.0, 180.0, 270.0))),
 )}
-"""The unscripted leads of issue 14: spins in place (0.5 rad/s, 180° each way), couple turns
+"""The unscripted leads: spins in place (0.5 rad/s, 180° each way), couple turns
 about the couple's centre (0.25 rad/s left by 90°, 1 rad/s right by 180°), backing away (0.5 m
 at 0.1 m/s) and a quick 0.3 m box (0.15 m/s)."""

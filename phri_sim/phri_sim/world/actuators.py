@@ -26,7 +26,7 @@ Time runs on an integer grid of ticks (1 ms, or the physics step when that is sh
 latencies are exact; each physics step's servo set point is the mean of its ticks' outputs.
 :data:`PLANTS` names the two plants of ``--plant``: ``realistic`` (the default; the drives above
 and the skin's driver pipeline, :mod:`phri_sim.world.skin_pipeline`) and ``ideal`` (the servos
-follow every command at once, as before issue 14's plant: 2·10⁴ N·s/m capped at 3 kN).
+follow every command at once, as before the realistic plant: 2·10⁴ N·s/m capped at 3 kN).
 """
 
 from __future__ import annotations

@@ -31,8 +31,8 @@ the true per-taxel constants (:class:`PatchSensor`). Randomness: the per-taxel c
 dead set) are drawn once per patch from ``seed`` and the board id (they belong to the board).
 The noise of a sample is a slice of a seeded pool of :data:`NOISE_POOL` Gaussian samples
 starting at an offset drawn from a generator seeded likewise (restarted by
-:meth:`PatchSensor.reset_noise`): ≈ 3 µs for 2,000 taxels instead of 30–50 µs for fresh draws,
-and the 500 Hz skin samples up to 1,500 patch frames per simulated second. A taxel gets the same
+:meth:`PatchSensor.reset_noise`): a slice is an order of magnitude cheaper than fresh draws, and
+the 500 Hz skin samples up to 1,500 patch frames per simulated second. A taxel gets the same
 noise value in two samples only if their offsets coincide (probability 1 / 65,536).
 """
 
