@@ -1,10 +1,10 @@
 """Every ``bench/`` script runs as documented from a fresh clone.
 
-Each script is started the way docs/benchmarks.md shows, ``.venv/bin/python bench/<script>.py``, in a
-subprocess whose working directory is NOT the repository and whose environment has no
-``PYTHONPATH``: a script that imports anything but the installed packages (e.g. the ``bench``
-directory as a package) fails here. ``--help`` imports every module-level dependency; the pure
-benchmarks also run a few iterations.
+Each script is started the way docs/benchmarks.md shows,
+``.venv/bin/python bench/<script>.py``, in a subprocess whose working directory is NOT the
+repository and whose environment has no ``PYTHONPATH``: a script that imports anything but the
+installed packages (e.g. the ``bench`` directory as a package) fails here. ``--help`` imports
+every module-level dependency; the pure benchmarks also run a few iterations.
 """
 
 from __future__ import annotations
