@@ -13,16 +13,22 @@ measures the same quantity independently, in the same convention: the torque the
 forces exert at each joint. Two lies of the skin show in their disagreement
 (:class:`SkinTorqueCheck`):
 
-* **gain far off**: both see a contact (‖τ_skin‖ and ‖τ_ext‖ ≥ ``min_torque``) and the
-  least-squares scale ρ = τ_extᵀ τ_skin / τ_skinᵀ τ_skin of the skin's torques onto the measured
-  ones lies outside [1/``max_gain_ratio``, ``max_gain_ratio``] — a skin reading 3 × the force
-  gives ρ = 1/3, one reading 0.3 × gives ρ = 3.3 — for ``hold_time``;
+* **gain far off**: both see a contact (‖τ_skin‖ and ‖τ_ext‖ ≥ ``min_torque``), the scaled
+  skin explains the measured torques (fit residual e = ‖τ_ext − ρ τ_skin‖ / ‖τ_ext‖ ≤
+  ``max_residual``: a wrong gain keeps the direction of τ in joint space, another contact on an
+  unsensed link does not) and the least-squares scale ρ = τ_extᵀ τ_skin / τ_skinᵀ τ_skin of the
+  skin's torques onto the measured ones lies outside [1/``max_gain_ratio``, ``max_gain_ratio``]
+  — a skin reading 3 × the force gives ρ = 1/3, one reading 0.3 × gives ρ = 3.3 — for
+  ``hold_time``;
 * **skin silent**: the joints feel a contact (‖τ_ext‖ ≥ ``silent_torque``) while no skin link
-  reports one, for ``hold_time`` (a blinded skin, or a contact where there is no skin: either
-  way the controller would drive on without seeing it).
+  reports one and the guard against unsensed contacts (:mod:`~wholebody_controller.torque_guard`)
+  is stopped and backing off, for ``silent_hold_time``. A contact where there is no skin looks
+  the same as a blinded skin; it is the guard's (slow, stop, back off, resume) as long as
+  backing off relieves it, and a latched stop would freeze the robot in the pinch instead. Only
+  a contact the back-off does not relieve (or any, with the guard switched off) is a verdict.
 
 A verdict is a safe stop (:mod:`~wholebody_controller.safe_stop`): diagnostics ERROR and an
-exact zero command until reset. ``hold_time`` keeps one noisy estimate, or a contact landing
+exact zero command until reset. The hold times keep one noisy estimate, or a contact landing
 between two skin frames, from stopping the robot. Sizes are the arm's joints only (the base has
 no torque sensing); ``τ_skin`` and ``τ_ext`` must name the same joints in the same order.
 """
