@@ -19,7 +19,6 @@ from phri_description.description import JOINT_NAMES
 from wholebody_controller.external_torque import (
     ArmDynamics,
     ExternalTorqueEstimator,
-    compare_skin,
     unexplained,
 )
 
@@ -144,19 +143,6 @@ def test_motion_is_not_a_contact(dynamics: ArmDynamics) -> None:
         if k >= 2:
             worst = max(worst, float(np.max(np.abs(est.tau))))
     assert worst < 0.05
-
-
-def test_compare_skin_reads_gain_and_silence() -> None:
-    measured = np.zeros(15)
-    measured[3:9] = [1.0, 20.0, 8.0, 0.5, 2.0, 0.1]
-    right = compare_skin(measured, measured)["left"]
-    assert right.gain == pytest.approx(1.0) and right.residual_norm == pytest.approx(0.0)
-    double = compare_skin(measured, 2.0 * measured)["left"]
-    assert double.gain == pytest.approx(0.5)
-    silent = compare_skin(measured, np.zeros(15))["left"]
-    assert math.isnan(silent.gain) and silent.skin_norm == 0.0
-    assert silent.measured_norm == pytest.approx(float(np.linalg.norm(measured[3:9])))
-    assert compare_skin(measured, measured)["right"].measured_norm == 0.0
 
 
 def test_a_joint_without_effort_is_not_guessed(dynamics: ArmDynamics) -> None:

@@ -23,13 +23,18 @@ TRUE = expected_joint_torques(JACOBIANS, WRENCHES)
 
 
 def run(check: SkinTorqueCheck, skin_gain: float, in_contact: bool = True,
-        periods: int = 100) -> list[tuple[str, float]]:
+        periods: int = 100, backing_off: bool = False,
+        extra: np.ndarray | None = None) -> list[tuple[str, float]]:
     """``periods`` cycles at 100 Hz of a skin that reads ``skin_gain`` × the true contact, the
-    joints measuring the truth with 0.1 N·m of noise; the verdicts with their times."""
+    joints measuring the truth (plus an ``extra`` contact no skin feels) with 0.1 N·m of noise;
+    the verdicts with their times."""
     verdicts = []
     for k in range(periods):
         measured = TRUE + RNG.normal(0.0, 0.1, TRUE.shape)
-        kind, message = check.update(skin_gain * TRUE, measured, in_contact, k * 0.01)
+        if extra is not None:
+            measured = measured + extra
+        kind, message = check.update(skin_gain * TRUE, measured, in_contact, k * 0.01,
+                                     backing_off)
         if kind:
             assert message
             verdicts.append((kind, k * 0.01))
@@ -54,13 +59,30 @@ def test_a_gain_far_off_is_a_verdict_after_hold_time(gain: float) -> None:
     assert verdicts[0][1] == pytest.approx(0.3)
 
 
-def test_a_silent_skin_while_the_joints_feel_a_contact_is_a_verdict() -> None:
-    verdicts = run(SkinTorqueCheck(TorqueCheckConfig(silent_torque=2.0)), 0.0,
-                   in_contact=False)
-    assert verdicts and verdicts[0] == (SKIN_SILENT, pytest.approx(0.3))
+def test_a_silent_skin_while_backing_off_does_not_relieve_is_a_verdict() -> None:
+    config = TorqueCheckConfig(silent_torque=2.0, silent_hold_time=0.5)
+    verdicts = run(SkinTorqueCheck(config), 0.0, in_contact=False, backing_off=True)
+    assert verdicts and verdicts[0] == (SKIN_SILENT, pytest.approx(0.5))
     # No contact anywhere: nothing to say.
     check = SkinTorqueCheck()
-    assert check.update(np.zeros(6), RNG.normal(0.0, 0.1, 6), False, 0.0) == ("", "")
+    assert check.update(np.zeros(6), RNG.normal(0.0, 0.1, 6), False, 0.0, True) == ("", "")
+
+
+def test_a_silent_skin_is_left_to_the_unsensed_guard_until_it_backs_off() -> None:
+    """An unsensed contact looks like a silent skin: while the guard only slows (or nothing
+    stops), it is the guard's — slowing, backing off and resuming — not a latched stop."""
+    config = TorqueCheckConfig(silent_torque=2.0, silent_hold_time=0.5)
+    assert run(SkinTorqueCheck(config), 0.0, in_contact=False, backing_off=False) == []
+
+
+def test_another_contact_beside_a_right_skin_is_not_a_gain() -> None:
+    """A skin that reads right while another, unsensed contact loads other joints: the scaled
+    skin explains the measured torques badly, so the gain is not judged (the guard's case)."""
+    across = RNG.normal(0.0, 1.0, 6)
+    across -= (across @ TRUE) / (TRUE @ TRUE) * TRUE  # loads the joints another way
+    extra = 1.5 * TRUE + 3.0 * float(np.linalg.norm(TRUE)) * across / np.linalg.norm(across)
+    assert run(SkinTorqueCheck(TorqueCheckConfig(max_residual=0.5)), 1.0, extra=extra) == []
+    assert run(SkinTorqueCheck(TorqueCheckConfig(max_residual=1.0)), 1.0, extra=extra)
 
 
 def test_a_short_disagreement_is_forgotten() -> None:
@@ -72,6 +94,8 @@ def test_a_short_disagreement_is_forgotten() -> None:
 
 def test_refusals() -> None:
     with pytest.raises(ValueError, match="one size"):
-        SkinTorqueCheck().update(np.zeros(6), np.zeros(5), True, 0.0)
-    with pytest.raises(ValueError, match="max_gain_ratio"):
+        SkinTorqueCheck().update(np.zeros(6), np.zeros(5), True, 0.0, False)
+    with pytest.raises(ValueError, match="skin_max_gain_ratio"):
         TorqueCheckConfig(max_gain_ratio=0.5)
+    with pytest.raises(ValueError, match="skin_silent_hold_time"):
+        TorqueCheckConfig(silent_hold_time=-1.0)

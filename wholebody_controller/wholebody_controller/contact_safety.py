@@ -41,7 +41,9 @@ open-loop push.
 from __future__ import annotations
 
 import enum
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 from phri_common import paper
 from phri_common.jit import jitable
@@ -153,3 +155,14 @@ def yield_speed_of(sigma: float, yield_speed: float, yield_speed_max: float) -> 
     (never below ``yield_speed``)."""
     top = yield_speed_max if yield_speed_max > yield_speed else yield_speed
     return yield_speed + sigma * (top - yield_speed)
+
+
+def safety_changed(known: dict[str, Safety], tasks: Sequence[Any]) -> bool:
+    """Update ``known`` (link → :class:`Safety`) from ``tasks`` (each with ``link`` and
+    ``safety``); whether any link's state changed (the node publishes diagnostics at once)."""
+    changed = False
+    for task in tasks:
+        if known.get(task.link) is not task.safety:
+            known[task.link] = task.safety
+            changed = True
+    return changed

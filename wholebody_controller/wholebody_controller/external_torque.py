@@ -33,16 +33,14 @@ servos, a real UR16e what RTDE reports. The model of this module:
 
 :class:`ArmDynamics` evaluates both on its own MuJoCo model (its own ``MjData``: it never touches
 the controller's kinematics). :class:`ExternalTorqueEstimator` keeps the latest readings, the
-differenced rates and a first-order low-pass of τ_ext (``filter_time``). :func:`compare_skin` is
-the cross-check of the skin against the joints (a fit of the skin's torque to the measured one
-per arm) for whoever builds "gain far off" and "skin silent while the torque says contact" on it.
+differenced rates and a first-order low-pass of τ_ext (``filter_time``). The skin's check
+against the joints (gain far off, skin silent) is :mod:`~wholebody_controller.skin_torque_check`.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 
 import mujoco
 import numpy as np
@@ -51,6 +49,7 @@ from numpy.typing import NDArray
 from phri_common.records import ContactState
 from phri_description.description import JOINT_NAMES, RobotDescription, robot_description
 from phri_description.mujoco_model import build_model, dof_indices, qpos_indices
+from wholebody_controller.skin_torque_check import expected_joint_torques
 
 FloatArray = NDArray[np.float64]
 
@@ -102,7 +101,8 @@ class ArmDynamics:
         d.qpos[self._qadr] = q
         mujoco.mj_kinematics(m, d)
         mujoco.mj_comPos(m, d)
-        out = np.zeros(N_Q)
+        jacobians: list[FloatArray] = []
+        wrenches: list[FloatArray] = []
         cols = self._dadr
         for link, state in contacts.items():
             if not state.in_contact:
@@ -114,54 +114,9 @@ class ArmDynamics:
             rot = d.xmat[body].reshape(3, 3)
             point = rot @ state.center + d.xpos[body]
             mujoco.mj_jac(m, d, self._jacp, self._jacr, point, body)
-            force, torque = rot @ state.force, rot @ state.torque
-            out += self._jacp[:, cols].T @ force + self._jacr[:, cols].T @ torque
-        return out
-
-
-@dataclass(frozen=True)
-class SkinComparison:
-    """The skin against the joints, per arm (:func:`compare_skin`).
-
-    Attributes:
-        measured: τ_ext of the arm's 6 joints [N·m] (E1).
-        skin: the skin's share Σ Jᵀ [f; τ] [N·m].
-        residual: measured − skin [N·m].
-        gain: the factor g that fits g · skin to measured best (least squares):
-            ⟨measured, skin⟩ / ‖skin‖²; 1 for a skin that reads right; nan while the skin's
-            torque is below ``min_torque`` (no fit possible).
-        measured_norm, skin_norm, residual_norm: their Euclidean norms [N·m].
-    """
-
-    measured: FloatArray
-    skin: FloatArray
-    residual: FloatArray
-    gain: float
-    measured_norm: float
-    skin_norm: float
-    residual_norm: float
-
-
-def compare_skin(measured: FloatArray, skin: FloatArray, min_torque: float = 1.0
-                 ) -> dict[str, SkinComparison]:
-    """The skin's joint torques against the measured external ones, per arm (15-vectors in q
-    order, as :attr:`ExternalTorqueEstimator.tau` and :meth:`~ExternalTorqueEstimator.skin`;
-    the arm's six joints are compared [N·m]).
-
-    Two checks read off it: a skin whose gain is far off (``gain`` away from 1 while both
-    norms are well above the noise) and a skin silent while the joints feel a contact
-    (``skin_norm`` ≈ 0 while ``measured_norm`` is large). Contacts on unsensed links also give a
-    residual; only their absence makes the residual the skin's error.
-    """
-    out = {}
-    for i, arm in enumerate(ARMS):
-        m, s = measured[3 + 6 * i : 9 + 6 * i], skin[3 + 6 * i : 9 + 6 * i]
-        skin_sq = float(s @ s)
-        gain = float(m @ s) / skin_sq if math.sqrt(skin_sq) >= min_torque else math.nan
-        r = m - s
-        out[arm] = SkinComparison(m.copy(), s.copy(), r, gain, float(np.linalg.norm(m)),
-                                  math.sqrt(skin_sq), float(np.linalg.norm(r)))
-    return out
+            jacobians.append(np.vstack([self._jacp[:, cols], self._jacr[:, cols]]))
+            wrenches.append(np.concatenate([rot @ state.force, rot @ state.torque]))
+        return expected_joint_torques(jacobians, wrenches) if jacobians else np.zeros(N_Q)
 
 
 def unexplained(measured: FloatArray, skin: FloatArray) -> FloatArray:
@@ -258,5 +213,4 @@ class ExternalTorqueEstimator:
         return self.dynamics.skin_torques(q, contacts)
 
 
-__all__ = ["ARMS", "ARM_JOINTS", "N_Q", "ArmDynamics", "ExternalTorqueEstimator", "SkinComparison",
-           "compare_skin", "unexplained"]
+__all__ = ["ARMS", "ARM_JOINTS", "N_Q", "ArmDynamics", "ExternalTorqueEstimator", "unexplained"]

@@ -46,6 +46,7 @@ from wholebody_controller.contact_task import (
 )
 from wholebody_controller.input_checks import InputError
 from wholebody_controller.safe_stop import SafeStop
+from wholebody_controller.skin_torque_check import SkinTorqueCheck
 from wholebody_controller.tasks import ContactTask
 from wholebody_controller.torque_guard import GuardReport, GuardState
 
@@ -292,6 +293,29 @@ def unsensed_status(node_name: str, report: GuardReport) -> DiagnosticStatus:
     return DiagnosticStatus(
         level=level, name=f"{node_name}: unsensed contact", message=message,
         hardware_id=node_name, values=[KeyValue(key=k, value=v) for k, v in values.items()])
+
+
+def skin_check_status(node_name: str, check: SkinTorqueCheck) -> DiagnosticStatus:
+    """The skin against the joints (:mod:`~wholebody_controller.skin_torque_check`) as a
+    diagnostic status: WARN while switched off, OK otherwise (a verdict is the safe stop's
+    ERROR); values: the last judged gain ρ and fit residual."""
+    level, message = DiagnosticStatus.OK, "skin checked against the joints' torques"
+    if not check.config.enabled:
+        level, message = DiagnosticStatus.WARN, "skin_torque_check off: skin not checked"
+    values = {"gain_ratio": f"{check.ratio:.3f}", "fit_residual": f"{check.residual:.3f}"}
+    return DiagnosticStatus(
+        level=level, name=f"{node_name}: skin against joints", message=message,
+        hardware_id=node_name, values=[KeyValue(key=k, value=v) for k, v in values.items()])
+
+
+def robot_statuses(node_name: str, loop: DiagnosticStatus, safe_stop: SafeStop,
+                   report: GuardReport, check: SkinTorqueCheck, scaling: dict[str, float],
+                   min_scaling: float) -> list[DiagnosticStatus]:
+    """The node's statuses beside the links': the ``loop``'s (:func:`loop_status`), speed
+    scaling, safe stop, unsensed contacts, the skin against the joints."""
+    return [loop, speed_scaling_status(node_name, scaling, min_scaling),
+            safe_stop_status(node_name, safe_stop), unsensed_status(node_name, report),
+            skin_check_status(node_name, check)]
 
 
 def loop_status(node_name: str, mode: str, loop: PeriodicThread | None,

@@ -67,7 +67,7 @@ from phri_common.records import ContactState
 from phri_common.ros_main import run_nodes, timer_callback
 from phri_common.ros_params import declare_parameters
 from phri_common.stamps import ns_to_stamp
-from wholebody_controller.contact_safety import Safety
+from wholebody_controller.contact_safety import Safety, safety_changed
 from wholebody_controller.controller import KinematicsModel, WholeBodyController
 from wholebody_controller.freshness import InputFreshness
 from wholebody_controller.input_checks import (
@@ -83,12 +83,10 @@ from wholebody_controller.messages import (
     odom_to_base,
     pose_to_base,
     positions_by_name,
-    safe_stop_status,
+    robot_statuses,
     safety_status,
     speed_scaling_fraction,
-    speed_scaling_status,
     task_state_to_msg,
-    unsensed_status,
 )
 from wholebody_controller.parameters import (
     GLOBAL_PARAMS,
@@ -98,11 +96,13 @@ from wholebody_controller.parameters import (
     freshness_config,
     iso_overrides,
     link_param_specs,
+    skin_check_config,
     torque_guard_config,
 )
 from wholebody_controller.qos import CONTACT_QOS, SCALING_QOS
 from wholebody_controller.qp import QPError
 from wholebody_controller.safe_stop import SafeStop
+from wholebody_controller.skin_torque_check import SkinTorqueCheck
 from wholebody_controller.speed_scaling import ARM_COMMAND_SLICES, ScalingGate, scale_to_slowest
 from wholebody_controller.torque_guard import TorqueWatch
 
@@ -141,7 +141,8 @@ class WholeBodyControllerNode(Node):
         specs = [*GLOBAL_PARAMS, *(s for link in self.links for s in link_param_specs(link))]
         self.controller: WholeBodyController | None = None
         self.params = declare_parameters(self, specs, self._on_params)
-        self._log_iso_overrides()
+        for text in iso_overrides(self.params, self.links):  # docs: Protected settings
+            self.get_logger().error(f"iso15066_override: {text}")  # above ISO/TS 15066's table
         # When each input arrived (node clock) and whether a cycle may use them.
         self.freshness = InputFreshness(self.links, self.arm_joints,
                                         freshness_config(self.params))
@@ -173,12 +174,6 @@ class WholeBodyControllerNode(Node):
         self._create_interfaces(direct_state_inputs)
         self._start_loop()
 
-    def _log_iso_overrides(self) -> None:
-        """Every force limit ``iso15066_override`` lets above the ISO/TS 15066 table, at ERROR
-        (docs: Protected settings)."""
-        for text in iso_overrides(self.params, self.links):
-            self.get_logger().error(f"iso15066_override: {text}")
-
     def _node_clock_ns(self) -> Callable[[], int]:
         """The node clock [ns]: the control thread runs on the wall clock, which is what the
         node clock reads without simulation time, read directly (far cheaper than rclpy's clock,
@@ -203,6 +198,7 @@ class WholeBodyControllerNode(Node):
         timers (see the module docstring)."""
         self.torque_watch = TorqueWatch(torque_guard_config(self.params),  # contacts no skin feels
                                         self.kinematics.position_limits)
+        self.skin_check = SkinTorqueCheck(skin_check_config(self.params))  # skin vs the joints
         # Commands are published as serialized bytes (phri_common.cdr): same messages, without
         # building three message objects per cycle.
         self._arm_encoders = (Float64ArrayEncoder(",".join(self.left_joints), 6),
@@ -270,6 +266,7 @@ class WholeBodyControllerNode(Node):
                 self.controller.configure(config)
                 self.freshness.config = timeouts
                 self.torque_watch.config = torque_guard_config(values)
+                self.skin_check.config = skin_check_config(values)
 
     # -- inputs ---------------------------------------------------------------------------------
     def now_s(self) -> float:
@@ -463,6 +460,7 @@ class WholeBodyControllerNode(Node):
             if self.controller is not None:
                 self.controller.reset()
             cleared = self.safe_stop.clear()
+            self.skin_check.reset()
         res.success, res.message = True, "interaction tasks reset"
         if cleared:
             res.message += f"; safe stop cleared ({', '.join(cleared)})"
@@ -540,11 +538,16 @@ class WholeBodyControllerNode(Node):
                                     throttle_duration_sec=1.0)
             self.publish_zero()
             return
-        self._track_safety(result.tasks)
+        if safety_changed(self.safety, result.tasks):  # diagnostics at once
+            self.publish_diagnostics()
         command = self.torque_watch.apply(self.controller, now_ns * 1e-9, result.command, q,
                                           self.contacts)  # contacts no skin feels
         if self.torque_watch.changed:
             self.publish_diagnostics()
+        kind, message = self.torque_watch.judge_skin(self.skin_check, self.contacts, now_ns * 1e-9)
+        if kind:  # the skin against the joints: a verdict
+            self.trip_safe_stop(kind, message)
+            command = np.zeros(15)  # exact zero from this cycle on
         self.publish_command(scale_to_slowest(command, self.speed_scaling))
         frame = str(self.params["world_frame"])
         for i, task in enumerate(result.tasks):
@@ -557,24 +560,10 @@ class WholeBodyControllerNode(Node):
 
     def _safe_stopped(self) -> bool:
         """While the safe stop is tripped: the tasks reset once, then the cycle sends zero."""
-        if not self.safe_stop.active:
-            self._stop_reset = False
-            return False
-        if not getattr(self, "_stop_reset", False):
-            self._stop_reset = True
-            if self.controller is not None:
-                self.controller.reset()
-        return True
-
-    def _track_safety(self, tasks: Sequence[Any]) -> None:
-        """Publish diagnostics at once when a link's contact-safety state changes."""
-        changed = False
-        for task in tasks:
-            if self.safety.get(task.link) is not task.safety:
-                self.safety[task.link] = task.safety
-                changed = True
-        if changed:
-            self.publish_diagnostics()
+        stand, first = self.safe_stop.holds()
+        if first and self.controller is not None:
+            self.controller.reset()
+        return stand
 
     def publish_diagnostics(self) -> None:
         """Per-link contact safety and the control loop on ``/diagnostics`` (1 Hz and on every
@@ -584,12 +573,10 @@ class WholeBodyControllerNode(Node):
         with self.cycle_lock:
             statuses = [safety_status(task, self.safety.get(task.link, Safety.OK), name)
                         for task in self.controller.tasks]
-            scaling = dict(self.speed_scaling)
-        statuses.append(loop_status(name, self.control_loop, self.loop, self.fatal_error))
-        statuses.append(speed_scaling_status(name, scaling,
-                                             float(self.params["min_speed_scaling"])))
-        statuses.append(safe_stop_status(name, self.safe_stop))
-        statuses.append(unsensed_status(name, self.torque_watch.report))
+            loop = loop_status(name, self.control_loop, self.loop, self.fatal_error)
+            statuses += robot_statuses(name, loop, self.safe_stop, self.torque_watch.report,
+                                       self.skin_check, dict(self.speed_scaling),
+                                       float(self.params["min_speed_scaling"]))
         msg = DiagnosticArray(status=statuses)
         msg.header.stamp = ns_to_stamp(self.clock_ns())
         self.diag_pub.publish(msg)

@@ -25,6 +25,7 @@ from wholebody_controller.config import (
 )
 from wholebody_controller.contact_safety import SafetyConfig
 from wholebody_controller.freshness import FreshnessConfig
+from wholebody_controller.skin_torque_check import TorqueCheckConfig
 from wholebody_controller.torque_guard import TorqueGuardConfig
 
 LINKS_PARAM = ParamSpec(
@@ -106,10 +107,11 @@ NODE_PARAMS: list[ParamSpec] = [
 
 GLOBAL_PARAMS: list[ParamSpec] = [
     *settings_of(ControllerConfig), *settings_of(SafetyConfig), *NODE_PARAMS,
-    *settings_of(TorqueGuardConfig)]
+    *settings_of(TorqueGuardConfig), *settings_of(TorqueCheckConfig)]
 """Every controller-wide parameter: the controller's and the contact safety's settings (each
 declared once, as a field of :class:`ControllerConfig` / :class:`SafetyConfig`), the node's own,
-then the guard's against unsensed contacts (:class:`TorqueGuardConfig`)."""
+then the guard's against unsensed contacts (:class:`TorqueGuardConfig`) and the skin's check
+against the joints (:class:`TorqueCheckConfig`)."""
 
 LINK_SUFFIXES: tuple[str, ...] = (
     "inertia", "damping", "stiffness", "priority_lock", "desired_force", "force_limit",
@@ -245,3 +247,8 @@ def freshness_config(values: Mapping[str, Any]) -> FreshnessConfig:
 def torque_guard_config(values: Mapping[str, Any]) -> TorqueGuardConfig:
     """The guard against unsensed contacts from the node's parameter values."""
     return TorqueGuardConfig(**values_for(TorqueGuardConfig, values))
+
+
+def skin_check_config(values: Mapping[str, Any]) -> TorqueCheckConfig:
+    """The skin's check against the joints from the node's parameter values."""
+    return TorqueCheckConfig(**values_for(TorqueCheckConfig, values))

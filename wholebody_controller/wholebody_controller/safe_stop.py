@@ -31,6 +31,8 @@ class SafeStop:
 
     reasons: dict[str, str] = field(default_factory=dict)
     trips: int = 0
+    entered: bool = False
+    """Whether :meth:`holds` has already reported this trip's first cycle."""
 
     @property
     def active(self) -> bool:
@@ -44,6 +46,15 @@ class SafeStop:
         if new:
             self.trips += 1
         return new
+
+    def holds(self) -> tuple[bool, bool]:
+        """Once per cycle: (whether the robot must stand, whether this is the trip's first
+        cycle — the caller resets the tasks once)."""
+        if not self.active:
+            self.entered = False
+            return False, False
+        first, self.entered = not self.entered, True
+        return True, first
 
     def clear(self) -> list[str]:
         """Reset (``~/reset``); the kinds that were cleared."""

@@ -13,16 +13,22 @@ measures the same quantity independently, in the same convention: the torque the
 forces exert at each joint. Two lies of the skin show in their disagreement
 (:class:`SkinTorqueCheck`):
 
-* **gain far off**: both see a contact (‖τ_skin‖ and ‖τ_ext‖ ≥ ``min_torque``) and the
-  least-squares scale ρ = τ_extᵀ τ_skin / τ_skinᵀ τ_skin of the skin's torques onto the measured
-  ones lies outside [1/``max_gain_ratio``, ``max_gain_ratio``] — a skin reading 3 × the force
-  gives ρ = 1/3, one reading 0.3 × gives ρ = 3.3 — for ``hold_time``;
+* **gain far off**: both see a contact (‖τ_skin‖ and ‖τ_ext‖ ≥ ``min_torque``), the scaled
+  skin explains the measured torques (fit residual e = ‖τ_ext − ρ τ_skin‖ / ‖τ_ext‖ ≤
+  ``max_residual``: a wrong gain keeps the direction of τ in joint space, another contact on an
+  unsensed link does not) and the least-squares scale ρ = τ_extᵀ τ_skin / τ_skinᵀ τ_skin of the
+  skin's torques onto the measured ones lies outside [1/``max_gain_ratio``, ``max_gain_ratio``]
+  — a skin reading 3 × the force gives ρ = 1/3, one reading 0.3 × gives ρ = 3.3 — for
+  ``hold_time``;
 * **skin silent**: the joints feel a contact (‖τ_ext‖ ≥ ``silent_torque``) while no skin link
-  reports one, for ``hold_time`` (a blinded skin, or a contact where there is no skin: either
-  way the controller would drive on without seeing it).
+  reports one and the guard against unsensed contacts (:mod:`~wholebody_controller.torque_guard`)
+  is stopped and backing off, for ``silent_hold_time``. A contact where there is no skin looks
+  the same as a blinded skin; it is the guard's (slow, stop, back off, resume) as long as
+  backing off relieves it, and a latched stop would freeze the robot in the pinch instead. Only
+  a contact the back-off does not relieve (or any, with the guard switched off) is a verdict.
 
 A verdict is a safe stop (:mod:`~wholebody_controller.safe_stop`): diagnostics ERROR and an
-exact zero command until reset. ``hold_time`` keeps one noisy estimate, or a contact landing
+exact zero command until reset. The hold times keep one noisy estimate, or a contact landing
 between two skin frames, from stopping the robot. Sizes are the arm's joints only (the base has
 no torque sensing); ``τ_skin`` and ``τ_ext`` must name the same joints in the same order.
 """
@@ -36,6 +42,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from phri_common.params import check_settings, setting
+
 Array = NDArray[np.float64]
 
 GAIN_OFF, SKIN_SILENT = "gain_off", "skin_silent"
@@ -44,26 +52,37 @@ GAIN_OFF, SKIN_SILENT = "gain_off", "skin_silent"
 
 @dataclass(frozen=True)
 class TorqueCheckConfig:
-    """Settings of :class:`SkinTorqueCheck` (module docstring).
+    """Settings of :class:`SkinTorqueCheck` (module docstring); each field is a node parameter,
+    protected (:mod:`phri_common.protected`: loosening one at run time needs the unlock)."""
 
-    Attributes:
-        max_gain_ratio: largest plausible ratio between the skin's and the joints' view [-].
-        min_torque: both views must reach this norm for the gain to be judged [N·m].
-        silent_torque: the joints' norm that means contact when the skin reports none [N·m].
-        hold_time: how long a disagreement must last to be a verdict [s].
-    """
-
-    max_gain_ratio: float = 2.0
-    min_torque: float = 3.0
-    silent_torque: float = 8.0
-    hold_time: float = 0.3
+    enabled: bool = setting(
+        "skin_torque_check", True, "check the skin against the external joint torques (gain far "
+        "off, skin silent) and trip the safe stop on a verdict (false: not checked)",
+        loosens="down")
+    max_gain_ratio: float = setting(
+        "skin_max_gain_ratio", 2.0, "largest plausible ratio between the skin's and the joints' "
+        "view of a contact (the least-squares gain ρ must lie in [1/r, r])", "-", 1.0, 100.0,
+        loosens="up")
+    min_torque: float = setting(
+        "skin_min_torque", 3.0, "both views' arm-joint torque norms must reach this for the "
+        "gain to be judged", "N·m", 0.0, 1000.0, loosens="up")
+    max_residual: float = setting(
+        "skin_max_residual", 0.5, "the gain is judged only while the scaled skin explains the "
+        "measured torques: ‖τ_ext − ρ τ_skin‖ ≤ this × ‖τ_ext‖ (a worse fit is another, "
+        "unsensed contact: the torque guard's)", "-", 0.0, 1.0, loosens="up")
+    hold_time: float = setting(
+        "skin_gain_hold_time", 0.3, "how long the gain must stay far off to be a verdict", "s",
+        0.0, 10.0, loosens="up")
+    silent_torque: float = setting(
+        "skin_silent_torque", 8.0, "arm-joint external torque norm that means contact while no "
+        "skin link reports one", "N·m", 0.0, 1000.0, loosens="up")
+    silent_hold_time: float = setting(
+        "skin_silent_hold_time", 2.0, "how long the joints must feel a contact no skin reports "
+        "while the unsensed guard is stopped and backing off (always, with the guard off) to be "
+        "a verdict: a contact backing off does not relieve", "s", 0.0, 60.0, loosens="up")
 
     def __post_init__(self) -> None:
-        for name, low in (("max_gain_ratio", 1.0), ("min_torque", 0.0),
-                          ("silent_torque", 0.0), ("hold_time", 0.0)):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value >= low):
-                raise ValueError(f"{name} refused value {value!r}: allowed [{low:g}, inf)")
+        check_settings(self)
 
 
 def expected_joint_torques(jacobians: Sequence[Array], wrenches: Sequence[Array]) -> Array:
@@ -97,23 +116,27 @@ class SkinTorqueCheck:
         self._since: dict[str, float | None] = {GAIN_OFF: None, SKIN_SILENT: None}
         self.ratio = math.nan
         """ρ of the last update where both views saw a contact (NaN: none yet)."""
+        self.residual = math.nan
+        """‖τ_ext − ρ τ_skin‖ / ‖τ_ext‖ of that update [-]."""
 
     def reset(self) -> None:
         """Forget disagreements under way (after a reset of the safe stop)."""
         self._since = {GAIN_OFF: None, SKIN_SILENT: None}
 
     def update(self, expected: Array, measured: Array, skin_in_contact: bool,
-               now: float) -> tuple[str, str]:
+               now: float, backing_off: bool) -> tuple[str, str]:
         """Compare one cycle's views at time ``now`` [s].
 
         Args:
             expected: τ_skin of the arm's joints [N·m] (:func:`expected_joint_torques`).
             measured: τ_ext of the same joints [N·m] (the external-torque estimate).
             skin_in_contact: whether any skin link reports a contact.
+            backing_off: whether the guard against unsensed contacts is stopped and backing
+                off (true also where no guard acts): only then can a silent skin be judged.
 
         Returns:
             ``(kind, message)`` of a verdict (:data:`GAIN_OFF`, :data:`SKIN_SILENT`), or
-            ``("", "")`` while they agree or a disagreement is younger than ``hold_time``.
+            ``("", "")`` while they agree or a disagreement is younger than its hold time.
 
         Raises:
             ValueError: the sizes differ or a value is not finite.
@@ -129,16 +152,19 @@ class SkinTorqueCheck:
         off = False
         if skin_norm >= cfg.min_torque and joint_norm >= cfg.min_torque:
             self.ratio = gain_ratio(expected, measured)
-            off = not (1.0 / cfg.max_gain_ratio <= self.ratio <= cfg.max_gain_ratio)
-        silent = not skin_in_contact and joint_norm >= cfg.silent_torque
-        for kind, holds in ((GAIN_OFF, off), (SKIN_SILENT, silent)):
+            self.residual = float(np.linalg.norm(measured - self.ratio * expected)) / joint_norm
+            off = self.residual <= cfg.max_residual and not (
+                1.0 / cfg.max_gain_ratio <= self.ratio <= cfg.max_gain_ratio)
+        silent = not skin_in_contact and joint_norm >= cfg.silent_torque and backing_off
+        for kind, holds, hold in ((GAIN_OFF, off, cfg.hold_time),
+                                  (SKIN_SILENT, silent, cfg.silent_hold_time)):
             if not holds:
                 self._since[kind] = None
                 continue
             start = self._since[kind]
             if start is None:
                 start = self._since[kind] = now
-            if now - start >= cfg.hold_time - 1e-9:
+            if now - start >= hold - 1e-9:
                 return kind, self._message(kind, skin_norm, joint_norm, now - start)
         return "", ""
 
@@ -150,4 +176,5 @@ class SkinTorqueCheck:
                     f"{joints:.1f} N·m; allowed 1/{cfg.max_gain_ratio:g}–{cfg.max_gain_ratio:g})"
                     f" for {held:.2f} s")
         return (f"skin silent: the joints feel {joints:.1f} N·m of external torque (≥ "
-                f"{cfg.silent_torque:g}) and no skin link reports a contact, for {held:.2f} s")
+                f"{cfg.silent_torque:g}) and no skin link reports a contact, while backing off "
+                f"for {held:.2f} s")

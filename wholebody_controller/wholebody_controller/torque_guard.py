@@ -44,11 +44,13 @@ from phri_common.records import ContactState
 from phri_description.description import JOINT_NAMES
 from wholebody_controller.config import ControllerConfig
 from wholebody_controller.external_torque import (
+    ARM_JOINTS,
     N_Q,
     ArmDynamics,
     ExternalTorqueEstimator,
     unexplained,
 )
+from wholebody_controller.skin_torque_check import SkinTorqueCheck
 
 FloatArray = NDArray[np.float64]
 
@@ -254,6 +256,21 @@ class TorqueWatch:
         controller.previous_command[...] = out
         self.changed = self.report.state is not state
         return out
+
+    def judge_skin(self, check: SkinTorqueCheck, contacts: Mapping[str, ContactState],
+                   t: float) -> tuple[str, str]:
+        """The skin against the joints at time ``t`` [s], after this cycle's :meth:`apply`
+        (:class:`SkinTorqueCheck`): the arm joints' skin share and measured τ_ext, whether any
+        skin link reports a contact, and whether this guard is backing off (always true with
+        the guard off: nothing else would back away). ``("", "")`` and the check's hold times
+        restarted while an arm joint reports no effort or ``skin_torque_check`` is off."""
+        report = self.report
+        if not check.config.enabled or any(n in ARM_JOINTS for n in report.unsensed):
+            check.reset()
+            return "", ""
+        in_contact = any(state.in_contact for state in contacts.values())
+        backing_off = report.state is GuardState.STOPPED or not self.config.enabled
+        return check.update(report.skin[3:], report.external[3:], in_contact, t, backing_off)
 
     def command(self, t: float, command: FloatArray, q: FloatArray,
                 contacts: Mapping[str, ContactState], previous: FloatArray, step: FloatArray,
