@@ -27,7 +27,8 @@ only a dead node ends it (:class:`~phri_sim.ros.lockstep.LockStepError`). A call
 MCAP recording) and follow progress (``progress(sim_time, duration)`` once per simulated second).
 The options' ``fault`` / ``fault_time`` inject a sensor fault in the bridge
 (:mod:`phri_sim.world.sensor_faults`); a frame or joint state the fault corrupted is not waited
-for in step 2 (downstream may refuse it). The metrics (:mod:`phri_sim.evaluation.metrics`) also
+for in step 2 (downstream may refuse it), nor is the contact state of a frame the contact
+estimation refused (plausibility, corruption: it withholds that link's state). The metrics (:mod:`phri_sim.evaluation.metrics`) also
 read the person↔robot contact forces after every physics step
 (:mod:`phri_sim.evaluation.body_forces`).
 
