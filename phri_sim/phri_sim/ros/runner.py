@@ -28,9 +28,9 @@ MCAP recording) and follow progress (``progress(sim_time, duration)`` once per s
 The options' ``fault`` / ``fault_time`` inject a sensor fault in the bridge
 (:mod:`phri_sim.world.sensor_faults`); a frame or joint state the fault corrupted is not waited
 for in step 2 (downstream may refuse it), nor is the contact state of a frame the contact
-estimation refused (plausibility, corruption: it withholds that link's state). The metrics (:mod:`phri_sim.evaluation.metrics`) also
-read the person↔robot contact forces after every physics step
-(:mod:`phri_sim.evaluation.body_forces`).
+estimation refused (plausibility, corruption: it withholds that link's state). The metrics
+(:mod:`phri_sim.evaluation.metrics`) also read the person↔robot contact forces after every
+physics step (:mod:`phri_sim.evaluation.body_forces`).
 
 Command line: ``python -m phri_sim.ros.runner waltz [--short] [--seed N] [--out metrics.json]
 [--fault FAULT] [--fault-time T]``.
