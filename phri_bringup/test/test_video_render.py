@@ -4,6 +4,7 @@ offscreen OpenGL is available (``MUJOCO_GL=egl`` works on the development machin
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -16,6 +17,7 @@ from phri_bringup.reports.video import (
     VideoOptions,
     VideoUnavailable,
     changing_pixel_share,
+    chunk_ranges,
 )
 from phri_common.planar import quaternion_from_yaw
 from phri_common.records import ContactState
@@ -83,3 +85,29 @@ def test_turning_couple_changes_many_pixels_a_static_one_almost_none() -> None:
 def test_no_force_no_arrow() -> None:
     frames = _frames(_tracks(speed=0.0, turn_rate=0.0, force=0.0))
     assert max(_red(f) for f in frames) == 0
+
+
+def test_a_chunk_rendered_on_its_own_has_the_frames_of_the_whole_video() -> None:
+    """What the parallel render relies on: frames k… of a renderer that starts at frame k are
+    those of the whole video (the camera's smoothing, the steps and the turn counters carried
+    over), pixel for pixel."""
+    tracks = _tracks(speed=0.3, turn_rate=0.6, force=10.0)
+    whole = _frames(tracks)
+    first = len(whole) // 2
+    renderer = FrameRenderer(tracks, VideoOptions(width=320, height=180, fps=FPS))
+    try:
+        chunk = list(renderer.frames(first, len(whole)))
+    finally:
+        renderer.close()
+    assert len(chunk) == len(whole) - first
+    assert all(np.array_equal(a, b) for a, b in zip(chunk, whole[first:], strict=True))
+
+
+@pytest.mark.parametrize(("n", "workers"), [(4662, 2), (4662, 5), (100, 8), (10, 3), (1, 1)])
+def test_chunks_cover_every_frame_once_in_order(n: int, workers: int) -> None:
+    chunks = chunk_ranges(n, workers)
+    assert 1 <= len(chunks) <= workers
+    assert chunks[0][0] == 0 and chunks[-1][1] == n
+    assert all(a[1] == b[0] for a, b in itertools.pairwise(chunks))
+    lengths = [b - a for a, b in chunks]
+    assert max(lengths) - min(lengths) <= 1

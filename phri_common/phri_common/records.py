@@ -11,6 +11,7 @@ is copied first, so the caller keeps its buffer), and ``==`` compares every fiel
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -104,6 +105,12 @@ class ContactState:
 
     def __delattr__(self, name: str) -> None:
         raise AttributeError(f"ContactState is immutable: cannot delete {name!r}")
+
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        """Pickled through the constructor (a worker process gets the same state)."""
+        return (ContactState, (self.link, self.stamp_ns, self.in_contact, self.center,
+                               self.force, self.torque, self.region_min, self.region_max,
+                               self.taxel_count))
 
     @classmethod
     def from_row(cls, link: str, stamp_ns: int, in_contact: bool, row: object,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pickle
 import subprocess
 import sys
 
@@ -103,3 +104,14 @@ def test_core_imports_no_ros_message_package(module: str) -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, timeout=120)
     assert out.stdout.strip() == "", f"{module} imports ROS modules: {out.stdout}"
+
+
+def test_a_contact_state_pickles_to_the_same_immutable_state() -> None:
+    """Worker processes (the parallel video render) receive contact states by pickle."""
+    state = ContactState("left_forearm_link", 12, True, center=(0.1, 0.2, 0.3),
+                         force=(1.0, 2.0, 3.0), torque=(0.0, 0.1, 0.0), taxel_count=7)
+    copy = pickle.loads(pickle.dumps(state))
+    for name in ContactState.__slots__:
+        assert np.array_equal(getattr(copy, name), getattr(state, name)), name
+    with pytest.raises(AttributeError):
+        copy.force = (0.0, 0.0, 0.0)  # type: ignore[misc]

@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 import sys
 from collections.abc import Mapping
+from functools import cache
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
@@ -141,8 +142,10 @@ def _limit(joint: Joint) -> str:
     )
 
 
+@cache
 def _needs_helper(joint: Joint) -> bool:
-    """A moving joint with a non-identity offset becomes two URDF joints (module docstring)."""
+    """A moving joint with a non-identity offset becomes two URDF joints (module docstring);
+    cached: a joint is an immutable value and /tf asks for every joint 50 times a second."""
     return joint.kind != "fixed" and not (
         np.allclose(joint.offset_matrix(), np.eye(3)) and not np.any(joint.offset_vector()))
 

@@ -9,11 +9,13 @@ running run (a clear error)."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from typing import Any
 
 import pytest
 
+from contact_estimation.frame_checks import MAX_TAXEL_FORCE_RANGE
 from phri_sim.ros.lockstep import STALL_LIMIT, LockStep, LockStepError
 from phri_sim.ros.run_options import RunOptions
 from phri_sim.ros.runner import ScenarioRun
@@ -172,5 +174,26 @@ def test_a_controller_taken_off_the_run_is_reported(ros_context: Any) -> None:
         with pytest.raises(LockStepError, match="wholebody_controller is no longer spun"):
             run.run()
         assert run.bridge.sim.time == pytest.approx(1.0, abs=0.011)
+    finally:
+        run.close()
+
+
+@pytest.mark.ros
+@pytest.mark.parametrize("controller", ["node", "stub"])
+def test_a_frame_the_estimation_refuses_is_not_waited_for(ros_context: Any,
+                                                          controller: str) -> None:
+    """Every touched frame beyond a tiny rated range is refused as corrupted, so the touched
+    link gets no contact state for its period: the lock-step goes on without it (on a clock
+    that moves a minute per read, a phase that waited for it would end at the stall limit)."""
+    centring = scenario_named("centring")
+    scenario = dataclasses.replace(centring, estimation_parameters={
+        **centring.estimation_parameters, "max_taxel_force": MAX_TAXEL_FORCE_RANGE[0]})
+    run = ScenarioRun(scenario, RunOptions(duration=2.0, controller=controller),
+                      context=ros_context)
+    run.lockstep.clock = FakeClock(MINUTE)
+    try:
+        run.run()
+        assert run.bridge.sim.time == pytest.approx(2.0, abs=0.011)
+        assert sum(run.estimation.refused_frames.values()) > 0  # type: ignore[attr-defined]
     finally:
         run.close()

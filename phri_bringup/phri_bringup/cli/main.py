@@ -364,9 +364,10 @@ def cmd_sim(args: argparse.Namespace) -> int:
     _report_safety(metrics)
     metrics["zero_velocity_at_exit"] = result.zero_at_exit
     metrics["seed"] = args.seed
+    video = _start_video(args, name, record_dir, out)  # renders while the baseline runs
     _following(args, name, metrics, runs, out)
-    metrics["bringup"] = {"run_wall_time": run_wall,
-                          **_plots_and_video(args, name, record_dir, out)}
+    metrics["bringup"] = {"run_wall_time": run_wall, **_plots(args, name, record_dir, out)}
+    _finish_video(video)
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2, allow_nan=True) + "\n",
                                       encoding="utf-8")
     total = time.perf_counter() - start
@@ -374,12 +375,10 @@ def cmd_sim(args: argparse.Namespace) -> int:
     return 0
 
 
-def _plots_and_video(args: argparse.Namespace, name: str, record_dir: Path | None, out: Path
-                     ) -> dict[str, Any]:
-    """The figure panels and the MP4 from the recording (unless ``--no-plots`` / ``--no-video``
-    or ``--no-record``); returns the panels' key numbers as ``{"plots": …}``."""
-    from phri_bringup.graph.nodes import scenario_file
-
+def _plots(args: argparse.Namespace, name: str, record_dir: Path | None, out: Path
+           ) -> dict[str, Any]:
+    """The figure panels from the recording (unless ``--no-plots`` or ``--no-record``); returns
+    the panels' key numbers as ``{"plots": …}``."""
     summary: dict[str, Any] = {}
     if record_dir is not None and not args.no_plots:
         from phri_bringup.reports.plots import make_plots
@@ -387,16 +386,41 @@ def _plots_and_video(args: argparse.Namespace, name: str, record_dir: Path | Non
         files, numbers = make_plots(record_dir, out / "plots", scenario=name)
         summary["plots"] = numbers
         _log(f"plots: {len(files)} panels in {out / 'plots'}")
-    if record_dir is not None and args.video:
-        from phri_bringup.reports.video import VideoUnavailable, render_video
-
-        t_video = time.perf_counter()
-        try:
-            path = render_video(record_dir, out / f"{scenario_file(name)}.mp4")
-            _log(f"video: {path} ({time.perf_counter() - t_video:.0f} s to render)")
-        except VideoUnavailable as err:
-            _log(f"video skipped: {err}")
     return summary
+
+
+def _start_video(args: argparse.Namespace, name: str, record_dir: Path | None, out: Path
+                 ) -> Any:
+    """Start rendering the MP4 from the recording (unless ``--no-video`` or ``--no-record``) on
+    a background thread, in one process per CPU core (:func:`render_video`'s ``workers``);
+    returns what :func:`_finish_video` waits on (None: no video)."""
+    if record_dir is None or not args.video:
+        return None
+    from concurrent.futures import ThreadPoolExecutor
+
+    from phri_bringup.graph.nodes import scenario_file
+    from phri_bringup.reports.video import render_video
+
+    pool = ThreadPoolExecutor(1, thread_name_prefix="video")
+    t_video = time.perf_counter()
+    future = pool.submit(render_video, record_dir, out / f"{scenario_file(name)}.mp4",
+                         workers=os.cpu_count() or 1)
+    pool.shutdown(wait=False)
+    return future, t_video
+
+
+def _finish_video(video: Any) -> None:
+    """Wait for the MP4 started by :func:`_start_video` and report it."""
+    if video is None:
+        return
+    from phri_bringup.reports.video import VideoUnavailable
+
+    future, t_video = video
+    try:
+        path = future.result()
+        _log(f"video: {path} ({time.perf_counter() - t_video:.0f} s to render)")
+    except VideoUnavailable as err:
+        _log(f"video skipped: {err}")
 
 
 def _run_options(args: argparse.Namespace) -> Any:
@@ -614,7 +638,8 @@ def cmd_video(args: argparse.Namespace) -> int:
     width, height = (int(x) for x in args.size.lower().split("x"))
     out = Path(args.out) if args.out else (run if run.is_dir() else run.parent) / "video.mp4"
     try:
-        print(render_video(run, out, VideoOptions(width=width, height=height, fps=args.fps)))
+        print(render_video(run, out, VideoOptions(width=width, height=height, fps=args.fps),
+                           workers=os.cpu_count() or 1))
     except VideoUnavailable as err:
         _log(f"video skipped: {err}")
         return 3

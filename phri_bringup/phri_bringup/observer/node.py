@@ -51,26 +51,54 @@ class Sink(Protocol):
 
 
 class RobotState:
-    """Latest arm joint positions and base pose, decoded from /joint_states and /odom."""
+    """Latest arm joint positions and base pose, decoded from /joint_states and /odom.
+
+    :meth:`update` only keeps the newest message of each (bytes); it is decoded when the state
+    is read (:attr:`joint_names`, :attr:`positions`, :attr:`base`): the recorder reads it at
+    the /tf rate, below the rate the state arrives at."""
 
     def __init__(self) -> None:
-        self.joint_names: list[str] = []
-        self.positions: list[float] = []
-        self.base = [0.0, 0.0, 0.0]
+        self._joint_names: list[str] = []
+        self._positions: list[float] = []
+        self._base = [0.0, 0.0, 0.0]
+        self._raw: dict[str, bytes] = {}
 
     def update(self, topic: str, raw: bytes) -> bool:
-        """Decode a state message; True if ``topic`` carried robot state."""
-        if topic == "/joint_states":
+        """Keep a state message; True if ``topic`` carried robot state."""
+        if topic not in ("/joint_states", "/odom"):
+            return False
+        self._raw[topic] = raw
+        return True
+
+    def _decode(self) -> None:
+        raw = self._raw.pop("/joint_states", None)
+        if raw is not None:
             js = deserialize_message(raw, JointState)
-            self.joint_names, self.positions = list(js.name), list(js.position)
-        elif topic == "/odom":
+            self._joint_names, self._positions = list(js.name), list(js.position)
+        raw = self._raw.pop("/odom", None)
+        if raw is not None:
             od = deserialize_message(raw, Odometry)
             q = od.pose.pose.orientation
-            self.base = [od.pose.pose.position.x, od.pose.pose.position.y,
-                         yaw_from_quaternion(q.w, q.x, q.y, q.z)]
-        else:
-            return False
-        return True
+            self._base = [od.pose.pose.position.x, od.pose.pose.position.y,
+                          yaw_from_quaternion(q.w, q.x, q.y, q.z)]
+
+    @property
+    def joint_names(self) -> list[str]:
+        """Names of the newest joint state."""
+        self._decode()
+        return self._joint_names
+
+    @property
+    def positions(self) -> list[float]:
+        """Positions of the newest joint state [rad or m]."""
+        self._decode()
+        return self._positions
+
+    @property
+    def base(self) -> list[float]:
+        """Base pose of the newest odometry: x [m], y [m], yaw [rad]."""
+        self._decode()
+        return self._base
 
 
 class RecordingSink:

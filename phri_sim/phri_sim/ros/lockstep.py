@@ -42,14 +42,16 @@ class LockStepError(RuntimeError):
     """A lock-step phase cannot complete: a node of the run died or stopped answering."""
 
 
-def dead_node(node: Any, name: str, executor: Any) -> str | None:
+def dead_node(node: Any, name: str, executor: Any, spun: Sequence[Any] | None = None
+              ) -> str | None:
     """Why ``node`` (called ``name``) can no longer answer (destroyed, off the executor, its
-    control loop ended with an error), or None while it can."""
+    control loop ended with an error), or None while it can. ``spun``: the executor's nodes,
+    when the caller already asked for them."""
     try:
         node.get_name()
     except Exception:  # rclpy's InvalidHandle: the node was destroyed
         return f"node {name} was destroyed"
-    if node not in executor.get_nodes():
+    if node not in (executor.get_nodes() if spun is None else spun):
         return f"node {name} is no longer spun by the run's executor"
     error = getattr(node, "fatal_error", None)
     if error is not None:
@@ -87,8 +89,9 @@ class LockStep:
         if not self.context.ok():
             raise LockStepError(f"lock-step: the context was shut down while waiting for {what} "
                                 f"at sim time {sim_time:.3f} s")
+        spun = self.executor.get_nodes()
         for node, name in self.nodes:
-            why = dead_node(node, name, self.executor)
+            why = dead_node(node, name, self.executor, spun)
             if why is not None:
                 raise LockStepError(f"lock-step: {why} while waiting for {what} at sim time "
                                     f"{sim_time:.3f} s")

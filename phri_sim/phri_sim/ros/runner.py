@@ -27,9 +27,10 @@ only a dead node ends it (:class:`~phri_sim.ros.lockstep.LockStepError`). A call
 MCAP recording) and follow progress (``progress(sim_time, duration)`` once per simulated second).
 The options' ``fault`` / ``fault_time`` inject a sensor fault in the bridge
 (:mod:`phri_sim.world.sensor_faults`); a frame or joint state the fault corrupted is not waited
-for in step 2 (downstream may refuse it). The metrics (:mod:`phri_sim.evaluation.metrics`) also
-read the person↔robot contact forces after every physics step
-(:mod:`phri_sim.evaluation.body_forces`).
+for in step 2 (downstream may refuse it), nor is the contact state of a frame the contact
+estimation refused (plausibility, corruption: it withholds that link's state). The metrics
+(:mod:`phri_sim.evaluation.metrics`) also read the person↔robot contact forces after every
+physics step (:mod:`phri_sim.evaluation.body_forces`).
 
 Command line: ``python -m phri_sim.ros.runner waltz [--short] [--seed N] [--out metrics.json]
 [--fault FAULT] [--fault-time T]``.
@@ -260,15 +261,26 @@ class ScenarioRun:
         <phri_sim.ros.lockstep.LockStep.wait>`; public so benchmarks can time it)."""
         self.lockstep.wait(missing, what, self.bridge.sim.time)
 
-    def _missing_inputs(self, stamp_ns: int, marks: tuple[Any, ...]) -> list[str]:
+    def _refused(self) -> dict[str, int]:
+        """Frames the contact estimation refused so far, per patch (plausibility, corruption)."""
+        return dict(getattr(self.estimation, "refused_frames", {}))
+
+    def _missing_inputs(self, stamp_ns: int, marks: tuple[Any, ...],
+                        refused: dict[str, int]) -> list[str]:
         """What the controller does not hold yet of this period's contacts, joint state and
-        odometry (topic names; empty when it holds them all)."""
+        odometry (topic names; empty when it holds them all). A link whose patch's frame the
+        estimation refused since ``refused`` (its counts before the period) gets no contact
+        state this period and is not waited for."""
         estimates = self.estimates
         out = []
+        withheld: set[str] | None = None
         for link in SKIN_LINKS:
             state = estimates.get(link)
             if state is None or (link in self._fresh_links and state.stamp_ns != stamp_ns):
-                out.append(f"contacts/{link}")
+                if withheld is None:
+                    withheld = self._withheld_links(refused)
+                if link not in withheld:
+                    out.append(f"contacts/{link}")
         ctrl = self.controller
         if hasattr(ctrl, "odom_time") and hasattr(ctrl, "arm_time"):
             if not (self._skip_joints or np.min(ctrl.arm_time) != marks[1]):
@@ -276,6 +288,13 @@ class ScenarioRun:
             if ctrl.odom_time == marks[0]:
                 out.append("/odom")
         return out
+
+    def _withheld_links(self, refused: dict[str, int]) -> set[str]:
+        """Links whose patch had a frame refused since the counts ``refused``."""
+        now = self._refused()
+        patch_link = self.bridge.sim.skins.patch_link
+        return {patch_link[p] for p, n in now.items()
+                if n > refused.get(p, 0) and p in patch_link}
 
     def _marks(self) -> tuple[Any, ...]:
         ctrl = self.controller
@@ -285,6 +304,7 @@ class ScenarioRun:
         """One control period (module docstring)."""
         bridge = self.bridge
         marks = self._marks()
+        refused = self._refused()
         bridge.advance(1, clock=False)
         stamp = bridge.stamp_ns
         patch_link = bridge.sim.skins.patch_link
@@ -293,7 +313,7 @@ class ScenarioRun:
         faulted = bridge.faults.changed_at(bridge.fault_clock)
         self._fresh_links = {patch_link[p] for p in bridge.published_patches if p not in faulted}
         self._skip_joints = "joint_states" in faulted
-        self.wait_for(lambda: self._missing_inputs(stamp, marks), "sensor data")
+        self.wait_for(lambda: self._missing_inputs(stamp, marks, refused), "sensor data")
         before = dict(bridge.commands_received)
         bridge.publish_clock()
         self.wait_for(lambda: [COMMAND_TOPICS[k] for k in before
