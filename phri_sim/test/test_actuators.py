@@ -107,10 +107,10 @@ def test_the_ideal_plant_passes_commands_through() -> None:
 
 
 def test_the_simulated_base_follows_a_turn_command_at_the_rated_acceleration() -> None:
-    """On the realistic plant (the default) a yaw command of 100 rad/s is clipped to the base's
-    limit (1 rad/s) and reached after its ramp: 1.0 / 1.5 rad/s² plus the jerk phase, the
-    latency and the lag (≈ 0.8 s); never faster than the rated acceleration."""
-    sim = Simulation(SimConfig(skin=SkinConfig(noise_std=0.0)))
+    """On the realistic plant a yaw command of 100 rad/s is clipped to the base's limit (1 rad/s)
+    and reached after its ramp: 1.0 / 1.5 rad/s² plus the jerk phase, the latency and the lag
+    (≈ 0.8 s); never faster than the rated acceleration."""
+    sim = Simulation(SimConfig(skin=SkinConfig(noise_std=0.0), plant="realistic"))
     sim.reset(np.array(Q_HOME))
     rates = []
     for _ in range(300):
@@ -125,7 +125,7 @@ def test_the_simulated_base_follows_a_turn_command_at_the_rated_acceleration() -
 
 
 def test_settling_and_reset_leave_the_drives_at_rest() -> None:
-    sim = Simulation()
+    sim = Simulation(SimConfig(plant="realistic"))
     assert sim.shaper is not None
     sim.command("base", np.array([0.3, 0.0, 0.0]))
     sim.step(20)

@@ -25,9 +25,9 @@ gives the full-length numbers), with margin for other seeds:
   body part of the person and every robot link within its ISO/TS 15066 region's limits (peak ≤
   transient, force held 0.5 s ≤ quasi-static; docs/phri_sim.md, "Body-region limits").
 
-The runs are on the ideal plant (servos that follow every command at once): these thresholds
-pin the present controller's behaviour, which on the realistic plant (the default) does not
-hold the waltz's hold. The realistic plant's numbers are the tempo ladder's (``phri ladder``,
+The runs are on the ideal plant (servos that follow every command at once; the default): these
+thresholds pin the present controller's behaviour, which on the realistic plant does not hold
+the waltz's hold. The realistic plant's numbers are the tempo ladder's (``phri ladder``,
 docs/phri_sim.md "Tempo ladder"); these tests move onto it once the controller holds the waltz
 there.
 """

@@ -216,11 +216,12 @@ def positive_number(text: str) -> float:
 
 def _plant_and_partner_arguments(sim: argparse.ArgumentParser) -> None:
     """``phri sim``'s plant and partner options (docs/phri_sim.md, "Plant", "The partner")."""
-    sim.add_argument("--plant", choices=PLANT_CHOICES, default="realistic",
-                     help="realistic (default): the base's command latency, acceleration and "
-                          "jerk limits and velocity-loop lag, the UR16e's RTDE cycle and speedJ "
-                          "ramp, the skin through the driver's 500 Hz moving average; ideal: "
-                          "servos that follow every command at once")
+    sim.add_argument("--plant", choices=PLANT_CHOICES, default="ideal",
+                     help="realistic: the base's command latency, acceleration and jerk limits "
+                          "and velocity-loop lag, the UR16e's RTDE cycle and speedJ ramp, the "
+                          "skin through the driver's 500 Hz moving average; ideal (default, "
+                          "until the controller holds the waltz on the realistic one): servos "
+                          "that follow every command at once")
     sim.add_argument("--tempo-scale", type=positive_number, default=1.0, metavar="K",
                      help="waltz: the routine danced K times faster (default 1)")
     sim.add_argument("--sway", type=int, default=None, metavar="SEED",
@@ -267,8 +268,8 @@ def _following_arguments(sub: Any, sim: argparse.ArgumentParser) -> None:
     follow.add_argument("--tempo", action="store_true",
                         help="from the waltz_tempo hold: its controller set (per-axis "
                              "velocity_limits at the robot's own)")
-    follow.add_argument("--plant", choices=PLANT_CHOICES, default="realistic",
-                        help="realistic (default) or ideal plant (as phri sim --plant)")
+    follow.add_argument("--plant", choices=PLANT_CHOICES, default="ideal",
+                        help="ideal (default) or realistic plant (as phri sim --plant)")
     _domain_argument(follow)
 
 

@@ -125,8 +125,11 @@ PLANTS: dict[str, Plant] = {
     "realistic": Plant("realistic"),
     "ideal": Plant("ideal", base=None, arm=None, skin_pipeline=False),
 }
-"""The plants of ``--plant`` (docs/phri_sim.md, "Plant"); ``realistic`` is the default."""
-DEFAULT_PLANT = "realistic"
+"""The plants of ``--plant`` (docs/phri_sim.md, "Plant")."""
+DEFAULT_PLANT = "ideal"
+"""The plant of ``phri sim`` and the bridge unless told: ``ideal`` while the whole-body
+controller does not yet hold the waltz's partner on the ``realistic`` one (docs/phri_sim.md,
+"Plant": the measurement); the tempo ladder runs on ``realistic``."""
 
 
 def plant_named(name: str) -> Plant:
