@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from phri_bringup.reports.plots import figure
 from phri_sim.evaluation.following_metrics import FollowingSeries, relative_pose
 
 if TYPE_CHECKING:
@@ -216,17 +217,6 @@ def side_by_side(robot: dict[str, Any], motionless: dict[str, Any] | None) -> li
     return lines
 
 
-def _figure(rows: int, title: str) -> tuple[Any, Any]:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(rows, 1, figsize=(9, 2.3 * rows + 0.6), sharex=True, squeeze=False)
-    fig.suptitle(title)
-    return fig, axes[:, 0]
-
-
 def _drift(series: FollowingSeries) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(t, Δ(x, y) [m], Δφ [deg]) of the partner in the base frame from the hold start."""
     h = series.hold_start()
@@ -250,8 +240,9 @@ def plot_following(path: Path, robot: FollowingSeries, summary: dict[str, Any],
              f"{'-' if lag is None else f'{lag:.2f} s'}, within the bars: "
              f"{'yes' if summary['pass']['all'] else 'NO'}")
     motion = robot.twist is not None and robot.command is not None
-    fig, axes = _figure(7 if motion else 4, title + (
-        "\n(robot solid, motionless dashed)" if motionless is not None else ""))
+    fig, axes = figure(7 if motion else 4, title + (
+        "\n(robot solid, motionless dashed)" if motionless is not None else ""),
+        row_height=2.3)
     runs = [(robot, "-", 1.0)] + ([(motionless, "--", 0.6)] if motionless is not None else [])
     for series, style, alpha in runs:
         _pose_panels(axes[:4], series, style, alpha)

@@ -189,13 +189,16 @@ def key_numbers(data: RunData) -> dict[str, Any]:
     return out
 
 
-def _figure(rows: int, title: str) -> tuple[Any, Any]:
+def figure(rows: int, title: str, row_height: float = 2.4) -> tuple[Any, Any]:
+    """A titled figure of ``rows`` panels stacked on one time axis (Agg backend): ``(fig,
+    axes)``; ``row_height`` [in] per panel."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(rows, 1, figsize=(9, 2.4 * rows + 0.6), sharex=True, squeeze=False)
+    fig, axes = plt.subplots(rows, 1, figsize=(9, row_height * rows + 0.6), sharex=True,
+                             squeeze=False)
     fig.suptitle(title)
     return fig, axes[:, 0]
 
@@ -242,7 +245,7 @@ PAPER_PAGES = ("centring", "sliding", "whole_body")
 
 
 def _force_panel(data: RunData, out: Path) -> Path:
-    fig, axes = _figure(3, "Resultant contact force ‖f_η‖ (eq. 9a)")
+    fig, axes = figure(3, "Resultant contact force ‖f_η‖ (eq. 9a)")
     for ax, link in zip(axes, SKIN_LINKS, strict=True):
         ax.plot(data.force[link].t, _norm(data.force[link]), label="estimated")
         if len(data.true_force[link].t):
@@ -255,7 +258,7 @@ def _force_panel(data: RunData, out: Path) -> Path:
 
 
 def _torque_panel(data: RunData, out: Path) -> Path:
-    fig, axes = _figure(3, "Torque about the contact centre τ_η (eq. 9b), link frame")
+    fig, axes = figure(3, "Torque about the contact centre τ_η (eq. 9b), link frame")
     for ax, link in zip(axes, SKIN_LINKS, strict=True):
         for k in range(3):
             ax.plot(data.torque[link].t, data.torque[link].v[:, k], label=f"τ_{AXES_XYZ[k]}")
@@ -266,7 +269,7 @@ def _torque_panel(data: RunData, out: Path) -> Path:
 
 
 def _centre_panel(data: RunData, out: Path) -> Path:
-    fig, axes = _figure(3, "Contact centre p_η (eq. 5), link frame; dashed: true")
+    fig, axes = figure(3, "Contact centre p_η (eq. 5), link frame; dashed: true")
     for ax, link in zip(axes, SKIN_LINKS, strict=True):
         c, touched = data.centre[link], data.in_contact[link]
         mask = touched.v[:, 0] > 0 if len(touched.t) else np.zeros(0, bool)
@@ -283,7 +286,7 @@ def _centre_panel(data: RunData, out: Path) -> Path:
 
 
 def _psi_panel(data: RunData, out: Path) -> Path:
-    fig, axes = _figure(1, "Weight ψ (eq. 15) per contact link")
+    fig, axes = figure(1, "Weight ψ (eq. 15) per contact link")
     for link in SKIN_LINKS:
         axes[0].semilogy(data.psi[link].t, np.maximum(data.psi[link].v[:, 0], 1e-6)
                          if len(data.psi[link].t) else data.psi[link].v[:, 0], label=link)
@@ -294,7 +297,7 @@ def _psi_panel(data: RunData, out: Path) -> Path:
 
 
 def _arm_panel(data: RunData, out: Path) -> Path:
-    fig, axes = _figure(2, "Arm joint velocities (Table II bound ±0.15 rad/s)")
+    fig, axes = figure(2, "Arm joint velocities (Table II bound ±0.15 rad/s)")
     names = data.joint_names or [f"joint {i}" for i in range(12)]
     for a, (ax, arm) in enumerate(zip(axes, ARMS, strict=True)):
         for k in range(6):
@@ -311,7 +314,7 @@ def _arm_panel(data: RunData, out: Path) -> Path:
 
 
 def _base_panel(data: RunData, out: Path) -> Path:
-    fig, axes = _figure(3, "Base velocity (base frame): commanded and measured")
+    fig, axes = figure(3, "Base velocity (base frame): commanded and measured")
     labels = ("v_x [m/s]", "v_y [m/s]", "ω_z [rad/s]")
     for k, ax in enumerate(axes):
         ax.plot(data.cmd_vel.t, data.cmd_vel.v[:, k], label="/cmd_vel")
@@ -341,7 +344,7 @@ def _waltz_panels(data: RunData, out: Path, numbers: dict[str, Any]) -> list[Pat
 
     link = WALTZ_LINK
     f = _norm(data.force[link])
-    fig, axes = _figure(1, "Waltz: waist contact force on the left forearm")
+    fig, axes = figure(1, "Waltz: waist contact force on the left forearm")
     axes[0].plot(data.force[link].t, f, label="estimated ‖f_η‖")
     if len(data.true_force[link].t):
         axes[0].plot(data.true_force[link].t, _norm(data.true_force[link]), "--", label="true")

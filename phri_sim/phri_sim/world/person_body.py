@@ -215,26 +215,25 @@ TORSO = BodyPartSpec(
     tissue=WAIST_TISSUE,
     max_push=80.0,
 )
-LEFT_HAND = BodyPartSpec(
-    name="person_left_hand",
-    geoms=(GeomSpec("person_left_hand", "sphere", (HAND_RADIUS,)),),
-    mass=0.5,
-    stiffness=400.0,
-    damping=2.0 * math.sqrt(400.0 * 0.5),
-    rot_stiffness=1.0,
-    rot_damping=0.05,
-    parking=(1.4, 0.9, 0.9),
-)
-RIGHT_HAND = BodyPartSpec(
-    name="person_right_hand",
-    geoms=(GeomSpec("person_right_hand", "sphere", (HAND_RADIUS,)),),
-    mass=0.5,
-    stiffness=400.0,
-    damping=2.0 * math.sqrt(400.0 * 0.5),
-    rot_stiffness=1.0,
-    rot_damping=0.05,
-    parking=(1.4, -0.9, 0.9),
-)
+
+
+def _hand(name: str, parking: tuple[float, float, float]) -> BodyPartSpec:
+    """A hand: a 0.5 kg sphere on a critically damped 400 N/m spring, parked at ``parking``
+    [m] while its script does not use it."""
+    return BodyPartSpec(
+        name=name,
+        geoms=(GeomSpec(name, "sphere", (HAND_RADIUS,)),),
+        mass=0.5,
+        stiffness=400.0,
+        damping=2.0 * math.sqrt(400.0 * 0.5),
+        rot_stiffness=1.0,
+        rot_damping=0.05,
+        parking=parking,
+    )
+
+
+LEFT_HAND = _hand("person_left_hand", (1.4, 0.9, 0.9))
+RIGHT_HAND = _hand("person_right_hand", (1.4, -0.9, 0.9))
 PERSON_PARTS: tuple[BodyPartSpec, ...] = (TORSO, LEFT_HAND, RIGHT_HAND)
 """The person's parts, in the order used by the ground-truth pose array."""
 
