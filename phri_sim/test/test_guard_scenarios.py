@@ -46,8 +46,8 @@ limits)."""
 @pytest.mark.ros
 def test_a_250_N_shove_for_3_s_is_yielded_to_within_the_abdomen_limits() -> None:
     """On the realistic plant (the drives a real robot has): waist 172 N peak / 107 N held. On
-    the ideal plant the same shove ends with 373 N on the partner's abdomen (waist 215 / 76 N):
-    an open finding (docs/phri_sim.md, "Shove")."""
+    the ideal plant the same shove drives the partner's abdomen into the unskinned right wrist
+    with 373 N (waist 215 / 76 N): an open finding (docs/phri_sim.md, "Shove")."""
     m = run_scenario("waltz", RunOptions(duration=SHOVE_TIME + 5.0, seed=0, plant="realistic",
                                          shove=f"250N@{SHOVE_TIME:g}s+3s"))
     assert m["shove"]["peak_applied"] == 250.0
