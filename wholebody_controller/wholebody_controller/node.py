@@ -135,7 +135,6 @@ class WholeBodyControllerNode(Node):
         self.left_joints, self.right_joints = self.arm_joints[0:6], self.arm_joints[6:12]
         if len(self.arm_joints) != 12:
             raise ValueError(f"expected 12 arm joints, got {self.arm_joints}")
-
         links_values = declare_parameters(self, [LINKS_PARAM])
         self.links: tuple[str, ...] = tuple(str(x) for x in links_values["links"])
         specs = [*GLOBAL_PARAMS, *(s for link in self.links for s in link_param_specs(link))]
@@ -153,6 +152,12 @@ class WholeBodyControllerNode(Node):
 
         self.clock_ns: Callable[[], int] = clock_ns or self._node_clock_ns()
         """The node clock [ns] (see the module docstring)."""
+        self._init_inputs(joints)
+        self._create_interfaces(direct_state_inputs)
+        self._start_loop()
+
+    def _init_inputs(self, joints: list[str]) -> None:
+        """The latest inputs, the per-link safety states, the speed scaling and the counters."""
         # Latest inputs.
         self.contacts: dict[str, ContactState] = {}
         self.arm_q = np.zeros(12)
@@ -167,12 +172,7 @@ class WholeBodyControllerNode(Node):
         """Executed fraction of commanded speed per arm (0–1), from its UR; none: unscaled."""
         self.scaling_gate = ScalingGate()
         # Counters (diagnostics and tests).
-        self.rejected_inputs = 0
-        self.qp_failures = 0
-        self.zero_cycles = 0
-        self.good_cycles = 0
-        self._create_interfaces(direct_state_inputs)
-        self._start_loop()
+        self.rejected_inputs = self.qp_failures = self.zero_cycles = self.good_cycles = 0
 
     def _node_clock_ns(self) -> Callable[[], int]:
         """The node clock [ns]: the control thread runs on the wall clock, which is what the
