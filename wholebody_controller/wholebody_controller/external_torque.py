@@ -80,6 +80,8 @@ class ArmDynamics:
         self._rne = np.zeros(self.model.nv)
         self._jacp = np.zeros((3, self.model.nv))
         self._jacr = np.zeros((3, self.model.nv))
+        self.link_torques: dict[str, FloatArray] = {}
+        """Each skin link's share of the last :meth:`skin_torques` [N, N·m] (15)."""
 
     def needed(self, q: FloatArray, qd: FloatArray, qdd: FloatArray) -> FloatArray:
         """M q̈ + c + g on the 15 joints [N, N·m] at configuration ``q``, rates ``qd`` and
@@ -96,13 +98,14 @@ class ArmDynamics:
 
     def skin_torques(self, q: FloatArray, contacts: Mapping[str, ContactState]) -> FloatArray:
         """Σ Jᵀ(p) [f; τ] over the links in contact [N, N·m] (15; module docstring) at
-        configuration ``q`` (15). A link the model does not know is skipped."""
+        configuration ``q`` (15). A link the model does not know is skipped. Each link's share
+        is kept in :attr:`link_torques`."""
         m, d = self.model, self.data
         d.qpos[self._qadr] = q
         mujoco.mj_kinematics(m, d)
         mujoco.mj_comPos(m, d)
-        jacobians: list[FloatArray] = []
-        wrenches: list[FloatArray] = []
+        total = np.zeros(N_Q)
+        self.link_torques = {}
         cols = self._dadr
         for link, state in contacts.items():
             if not state.in_contact:
@@ -114,9 +117,12 @@ class ArmDynamics:
             rot = d.xmat[body].reshape(3, 3)
             point = rot @ state.center + d.xpos[body]
             mujoco.mj_jac(m, d, self._jacp, self._jacr, point, body)
-            jacobians.append(np.vstack([self._jacp[:, cols], self._jacr[:, cols]]))
-            wrenches.append(np.concatenate([rot @ state.force, rot @ state.torque]))
-        return expected_joint_torques(jacobians, wrenches) if jacobians else np.zeros(N_Q)
+            jac = np.vstack([self._jacp[:, cols], self._jacr[:, cols]])
+            share = expected_joint_torques([jac], [np.concatenate([rot @ state.force,
+                                                                   rot @ state.torque])])
+            self.link_torques[link] = share
+            total += share
+        return total
 
 
 def unexplained(measured: FloatArray, skin: FloatArray) -> FloatArray:

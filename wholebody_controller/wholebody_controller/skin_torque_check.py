@@ -36,7 +36,7 @@ no torque sensing); ``τ_skin`` and ``τ_ext`` must name the same joints in the 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,8 +46,9 @@ from phri_common.params import check_settings, setting
 
 Array = NDArray[np.float64]
 
-GAIN_OFF, SKIN_SILENT = "gain_off", "skin_silent"
+GAIN_OFF, SKIN_SILENT, SKIN_FROZEN = "gain_off", "skin_silent", "skin_frozen"
 """The verdicts' kinds."""
+VERDICTS = (GAIN_OFF, SKIN_SILENT, SKIN_FROZEN)
 
 
 @dataclass(frozen=True)
@@ -80,6 +81,20 @@ class TorqueCheckConfig:
         "skin_silent_hold_time", 2.0, "how long the joints must feel a contact no skin reports "
         "while the unsensed guard is stopped and backing off (always, with the guard off) to be "
         "a verdict: a contact backing off does not relieve", "s", 0.0, 60.0, loosens="up")
+    still_force_ratio: float = setting(
+        "skin_still_force_ratio", 0.05, "a skin link's contact is still while its force stays "
+        "within this fraction of its force when the stillness began", "-", 0.0, 1.0,
+        loosens="down")
+    still_center_range: float = setting(
+        "skin_still_center_range", 2e-3, "… and its contact centre within this of where it "
+        "was, on every axis", "m", 0.0, 1.0, loosens="down")
+    frozen_torque: float = setting(
+        "skin_frozen_torque", 3.0, "change of the torque the skin does not explain (τ_ext − "
+        "τ_skin, along the skin's contact) since the skin became still that makes the still "
+        "skin frozen", "N·m", 0.0, 1000.0, loosens="up")
+    frozen_hold_time: float = setting(
+        "skin_frozen_hold_time", 0.3, "how long a still skin must disagree with the joints' "
+        "change to be a verdict", "s", 0.0, 10.0, loosens="up")
 
     def __post_init__(self) -> None:
         check_settings(self)
@@ -108,12 +123,63 @@ def gain_ratio(expected: Array, measured: Array) -> float:
     return float(measured @ expected) / norm2
 
 
+Reading = tuple[float, Sequence[float], Array]
+"""A skin link's contact: its force magnitude [N] and centre (x, y, z) [m] in the link frame,
+and what it does to the compared joints, Jᵀ w [N·m] (its share of τ_skin)."""
+
+
+class SkinStillness:
+    """Since when each skin link's contact has been still (module docstring, "skin frozen").
+
+    A link is still while it stays in contact with its force f within ``force_ratio`` · f₀ of,
+    and its centre within ``center_range`` [m] (every axis) of, its reading f₀, c₀ when the
+    stillness began. O(links) per update.
+    """
+
+    def __init__(self, force_ratio: float, center_range: float) -> None:
+        self.force_ratio, self.center_range = force_ratio, center_range
+        self._start: dict[str, tuple[float, tuple[float, ...]]] = {}
+        self.since: dict[str, float] = {}
+        """When each link in contact became still [s]."""
+
+    def reset(self) -> None:
+        """Forget the stillness under way."""
+        self._start, self.since = {}, {}
+
+    def update(self, readings: Mapping[str, Reading], now: float) -> list[str]:
+        """Take the links in contact at ``now`` [s]; the links whose stillness begins here (a
+        new contact, or one that moved or changed its force). A link released is forgotten."""
+        for link in [link for link in self._start if link not in readings]:
+            del self._start[link], self.since[link]
+        begun = []
+        for link, (force, center, _) in readings.items():
+            start = self._start.get(link)
+            if start is not None and abs(force - start[0]) <= self.force_ratio * start[0] and all(
+                    abs(x - x0) <= self.center_range for x, x0 in zip(center, start[1],
+                                                                      strict=True)):
+                continue
+            self._start[link] = (float(force), tuple(float(x) for x in center))
+            self.since[link] = now
+            begun.append(link)
+        return begun
+
+
 class SkinTorqueCheck:
     """The two checks over time (module docstring); :meth:`update` once per control cycle."""
 
     def __init__(self, config: TorqueCheckConfig | None = None) -> None:
         self.config = config or TorqueCheckConfig()
-        self._since: dict[str, float | None] = {GAIN_OFF: None, SKIN_SILENT: None}
+        self._since: dict[str, float | None] = dict.fromkeys(VERDICTS)
+        self.stillness = SkinStillness(self.config.still_force_ratio,
+                                       self.config.still_center_range)
+        self._still_start: dict[str, Array] = {}
+        self.still_change = math.nan
+        """The largest ‖Δu‖ of a still link at the last update [N·m] (NaN: no link in contact;
+        module docstring)."""
+        self.still_time = 0.0
+        """How long that link has been still [s]."""
+        self.frozen_link: tuple[str, float, float] = ("", 0.0, 0.0)
+        """The last link found frozen: its name, ‖Δu‖ [N·m], how long it had been still [s]."""
         self.ratio = math.nan
         """ρ of the last update where both views saw a contact (NaN: none yet)."""
         self.residual = math.nan
@@ -121,10 +187,14 @@ class SkinTorqueCheck:
 
     def reset(self) -> None:
         """Forget disagreements under way (after a reset of the safe stop)."""
-        self._since = {GAIN_OFF: None, SKIN_SILENT: None}
+        self._since = dict.fromkeys(VERDICTS)
+        self.stillness.reset()
+        self._still_start = {}
+        self.still_change = math.nan
 
     def update(self, expected: Array, measured: Array, skin_in_contact: bool,
-               now: float, backing_off: bool) -> tuple[str, str]:
+               now: float, backing_off: bool,
+               readings: Mapping[str, Reading] | None = None) -> tuple[str, str]:
         """Compare one cycle's views at time ``now`` [s].
 
         Args:
@@ -133,9 +203,12 @@ class SkinTorqueCheck:
             skin_in_contact: whether any skin link reports a contact.
             backing_off: whether the guard against unsensed contacts is stopped and backing
                 off (true also where no guard acts): only then can a silent skin be judged.
+            readings: the skin links in contact (:data:`Reading`), for the frozen check
+                (``None``: not judged).
 
         Returns:
-            ``(kind, message)`` of a verdict (:data:`GAIN_OFF`, :data:`SKIN_SILENT`), or
+            ``(kind, message)`` of a verdict (:data:`GAIN_OFF`, :data:`SKIN_SILENT`,
+            :data:`SKIN_FROZEN`), or
             ``("", "")`` while they agree or a disagreement is younger than its hold time.
 
         Raises:
@@ -156,8 +229,10 @@ class SkinTorqueCheck:
             off = self.residual <= cfg.max_residual and not (
                 1.0 / cfg.max_gain_ratio <= self.ratio <= cfg.max_gain_ratio)
         silent = not skin_in_contact and joint_norm >= cfg.silent_torque and backing_off
+        frozen = readings is not None and self._frozen(expected, measured, readings, now)
         for kind, holds, hold in ((GAIN_OFF, off, cfg.hold_time),
-                                  (SKIN_SILENT, silent, cfg.silent_hold_time)):
+                                  (SKIN_SILENT, silent, cfg.silent_hold_time),
+                                  (SKIN_FROZEN, frozen, cfg.frozen_hold_time)):
             if not holds:
                 self._since[kind] = None
                 continue
@@ -168,8 +243,41 @@ class SkinTorqueCheck:
                 return kind, self._message(kind, skin_norm, joint_norm, now - start)
         return "", ""
 
+    def _frozen(self, expected: Array, measured: Array, readings: Mapping[str, Reading],
+                now: float) -> bool:
+        """Whether a skin link is still while the torque the skin does not explain,
+        u = τ_ext − τ_skin [N·m], has changed since that link became still by ‖Δu‖ ≥
+        ``frozen_torque`` along the link's own share τ_i of τ_skin (‖Δu − κ τ_i‖ ≤
+        ``max_residual`` ‖Δu‖, κ = Δuᵀ τ_i / τ_iᵀ τ_i; module docstring). The other links'
+        changes, read by their skin, are in both τ_ext and τ_skin: they leave u alone."""
+        cfg, still = self.config, self.stillness
+        still.force_ratio, still.center_range = cfg.still_force_ratio, cfg.still_center_range
+        unexplained = measured - expected
+        for link in still.update(readings, now):
+            self._still_start[link] = unexplained
+        for link in [link for link in self._still_start if link not in still.since]:
+            del self._still_start[link]
+        self.still_change, self.still_time, frozen = math.nan, 0.0, False
+        for link, since in still.since.items():
+            change = unexplained - self._still_start[link]
+            size = float(np.linalg.norm(change))
+            if not size <= self.still_change:  # the largest change reported (NaN: none yet)
+                self.still_change, self.still_time = size, now - since
+            kappa = gain_ratio(readings[link][2], change)
+            if size >= cfg.frozen_torque and size > 0.0 and not math.isnan(kappa) and float(
+                    np.linalg.norm(change - kappa * readings[link][2])) <= cfg.max_residual * size:
+                frozen, self.frozen_link = True, (link, size, now - since)
+        return frozen
+
     def _message(self, kind: str, skin: float, joints: float, held: float) -> str:
         cfg = self.config
+        if kind == SKIN_FROZEN:
+            link, change, still = self.frozen_link
+            return (f"skin frozen: {link}'s contact has stayed still (within "
+                    f"{100 * cfg.still_force_ratio:g} % and {1e3 * cfg.still_center_range:g} mm)"
+                    f" for {still:.2f} s while the torque the skin does not explain changed by "
+                    f"{change:.1f} N·m along that contact (allowed {cfg.frozen_torque:g}: "
+                    f"skin_frozen_torque) for {held:.2f} s")
         if kind == GAIN_OFF:
             return (f"skin gain far off: the skin's contacts explain {1.0 / self.ratio:.2f} × "
                     f"the measured external joint torques (|τ_skin| {skin:.1f} N·m, |τ_ext| "

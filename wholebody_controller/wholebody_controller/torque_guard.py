@@ -260,17 +260,21 @@ class TorqueWatch:
     def judge_skin(self, check: SkinTorqueCheck, contacts: Mapping[str, ContactState],
                    t: float) -> tuple[str, str]:
         """The skin against the joints at time ``t`` [s], after this cycle's :meth:`apply`
-        (:class:`SkinTorqueCheck`): the arm joints' skin share and measured τ_ext, whether any
-        skin link reports a contact, and whether this guard is backing off (always true with
-        the guard off: nothing else would back away). ``("", "")`` and the check's hold times
-        restarted while an arm joint reports no effort or ``skin_torque_check`` is off."""
+        (:class:`SkinTorqueCheck`): the arm joints' skin share and measured τ_ext, the skin
+        links reporting a contact (force, centre: the frozen check), and whether this guard is
+        backing off (always true with the guard off: nothing else would back away).
+        ``("", "")`` and the check's hold times restarted while an arm joint reports no effort
+        or ``skin_torque_check`` is off."""
         report = self.report
         if not check.config.enabled or any(n in ARM_JOINTS for n in report.unsensed):
             check.reset()
             return "", ""
-        in_contact = any(state.in_contact for state in contacts.values())
+        shares = self.estimator.dynamics.link_torques  # this cycle's, from command()
+        readings = {link: (float(np.linalg.norm(state.force)), state.center, shares[link][3:])
+                    for link, state in contacts.items() if state.in_contact and link in shares}
         backing_off = report.state is GuardState.STOPPED or not self.config.enabled
-        return check.update(report.skin[3:], report.external[3:], in_contact, t, backing_off)
+        return check.update(report.skin[3:], report.external[3:], bool(readings), t,
+                            backing_off, readings)
 
     def command(self, t: float, command: FloatArray, q: FloatArray,
                 contacts: Mapping[str, ContactState], previous: FloatArray, step: FloatArray,
