@@ -99,12 +99,12 @@ PARAMS: list[ParamSpec] = [
               "is a dead region: its frames are refused, diagnostics ERROR", low=0.0, high=1.0,
               loosens="up"),
     ParamSpec("plausibility_frozen_window", 2.0, "a link touched this long whose contact force "
-              "and centre stay within the two bounds below is frozen: its frames are refused, "
-              "diagnostics ERROR (0 = no frozen check)", unit="s", low=0.0, high=60.0,
-              loosens="up_or_off"),
-    ParamSpec("plausibility_frozen_force_ratio", 0.05, "frozen: contact force range below this "
+              "and centre stay within the two bounds below is still: diagnostics WARN, its "
+              "frames are kept (the controller checks a still skin against the joints; 0 = no "
+              "stillness report)", unit="s", low=0.0, high=60.0, loosens="up_or_off"),
+    ParamSpec("plausibility_frozen_force_ratio", 0.05, "still: contact force range below this "
               "fraction of its mean over the window", low=0.0, high=1.0, loosens="down"),
-    ParamSpec("plausibility_frozen_center_range", 2e-3, "frozen: contact centre range below "
+    ParamSpec("plausibility_frozen_center_range", 2e-3, "still: contact centre range below "
               "this on every axis over the window", unit="m", low=0.0, high=1.0,
               loosens="down"),
     ParamSpec("kernel", KERNELS[0], "how the per-link sums are computed: numba (compiled, "
@@ -197,6 +197,7 @@ class ContactEstimationNode(Node):
         self._dead = DeadRegionDetector(plausibility)
         self._frozen = FrozenDetector(plausibility)
         self._implausible: dict[str, str] = dict.fromkeys(patches, "")
+        self._still: dict[str, str] = dict.fromkeys(patches, "")
         self._scales = self._marker_scales(self._values)
         self._publish_markers = bool(self._values["publish_markers"])
         self._geometry_interval = int(self._values["geometry_check_interval"])
@@ -300,14 +301,11 @@ class ContactEstimationNode(Node):
 
     def _check_plausible(self, patch: str, forces: Any, state: ContactState) -> None:
         """The skin-alone plausibility checks on an accepted frame (:mod:`~contact_estimation.
-        plausibility`); raises :class:`SkinImplausible`, remembered for diagnostics (ERROR)
-        until a frame of the patch passes again."""
+        plausibility`): a dead region raises :class:`SkinImplausible`, remembered for
+        diagnostics (ERROR) until a frame of the patch passes again; a still link is remembered
+        for diagnostics (WARN), its frames are kept."""
         try:
             self._dead.check(patch, forces, state.stamp_ns)
-            force = state.force.tolist()
-            self._frozen.check(patch, math.sqrt(force[0] ** 2 + force[1] ** 2 + force[2] ** 2),
-                               tuple(state.center.tolist()),
-                               state.in_contact, state.stamp_ns)
         except SkinImplausible as err:
             if not self._implausible[patch]:
                 self.get_logger().error(f"{err}: its link's contact state is withheld (the "
@@ -317,6 +315,12 @@ class ContactEstimationNode(Node):
         if self._implausible[patch]:
             self.get_logger().info(f"patch {patch!r} plausible again")
         self._implausible[patch] = ""
+        fx, fy, fz = state.force.tolist()
+        still = self._frozen.check(patch, math.sqrt(fx * fx + fy * fy + fz * fz),
+                                   tuple(state.center.tolist()), state.in_contact, state.stamp_ns)
+        if still and not self._still[patch]:
+            self.get_logger().info(f"patch {patch!r} still: {still}")
+        self._still[patch] = still
 
     def _count_frame(self, patch: str) -> bool:
         """Count a frame of ``patch``; whether its geometry is to be compared with the known
@@ -368,10 +372,13 @@ class ContactEstimationNode(Node):
             taxels = self._estimator.taxel_count(patch)
             last_error = self._last_error[patch]
             implausible = self._implausible[patch]
+            still = self._still[patch]
             silent = self._dead.silent.get(patch, 0)
         level = DiagnosticStatus.OK if refused == 0 and received else DiagnosticStatus.WARN
         message = "no frames yet" if received == 0 else (
             "ok" if refused == 0 else f"{refused} frame(s) refused")
+        if still and level == DiagnosticStatus.OK:
+            level, message = DiagnosticStatus.WARN, f"still contact: {still}"
         if implausible:
             level, message = DiagnosticStatus.ERROR, f"implausible skin: {implausible}"
 
@@ -382,7 +389,8 @@ class ContactEstimationNode(Node):
                   "taxels": "-" if taxels is None else taxels,
                   "geometry_mismatches": mismatches, "mismatch_taxels": wrong,
                   "silent_taxels": silent,
-                  "implausible": implausible or "no", "last_error": last_error}
+                  "implausible": implausible or "no", "still": still or "no",
+                  "last_error": last_error}
         return DiagnosticStatus(
             level=level, name=f"contact_estimation: {patch}",
             hardware_id=self._patch_links[patch], message=message,

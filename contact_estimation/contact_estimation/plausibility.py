@@ -2,7 +2,8 @@
 
 The frame checks (:mod:`~contact_estimation.frame_checks`) refuse what cannot be a reading at all
 (NaN, beyond the rated range, a loaded frame repeating bit for bit). A skin can also lie with
-readings that each look fine; two such lies are visible in the skin's own statistics:
+readings that each look fine. One such lie is visible in the skin's own statistics (a dead
+region); another, a frozen frame with fresh noise, only makes a patch look still:
 
 * **Dead region** (:class:`DeadRegionDetector`): a live taxel always shows noise (the skin
   driver's premise for masking a stuck ADC channel, ``stuck_time``), so a taxel whose force has
@@ -10,22 +11,28 @@ readings that each look fine; two such lies are visible in the skin's own statis
   masked channel, a board or cable gone (then the whole patch reads a constant 0 N). A patch
   with more than ``max_dead_fraction`` of its taxels silent is a dead region: a contact there
   would not be seen, and one on its edge is read too light and off-centre.
-* **Frozen but noisy** (:class:`FrozenDetector`): a driver that replays its last frame behind a
-  noisy analogue stage (or adds its own noise) passes the bit-identical stuck check. A touched
-  link whose contact force and contact centre stay within ``frozen_force_ratio`` of their mean
-  and ``frozen_center_range`` [m] over a whole block of ``frozen_window`` [s] of touched frames is
-  frozen: a person in contact with a robot link moves, breathes and is followed by the robot;
-  the measured waltz, centring, sliding and whole-body contacts vary by several times more in
-  every such block (docs/contact_estimation.md, "Plausibility"). A block is decided when it is
-  complete (every ``frozen_window`` of touched frames; an untouched frame starts a new one), so a
-  frozen patch is found between one and two windows after it froze.
+* **Still** (:class:`FrozenDetector`): a driver that replays its last frame behind a noisy
+  analogue stage (or adds its own noise) passes the bit-identical stuck check, and reads like a
+  contact held still: a touched link whose contact force and contact centre stay within
+  ``frozen_force_ratio`` of their mean and ``frozen_center_range`` [m] over a whole block of
+  ``frozen_window`` [s] of touched frames is *still*. Stillness alone is no evidence of a lie: a
+  partner holding still on a well-followed link reads still for minutes (the waltz's steady
+  hold, the motionless baseline's upper arm), and on the skin alone a constant contact plus the
+  skin's noise cannot be told from a replayed frame plus noise. So a still link is reported
+  (diagnostics WARN), never refused here; the evidence that the contact must have changed is
+  the joints': the controller refuses a still skin whose contact the external joint torques
+  see change (``wholebody_controller.skin_torque_check``, "skin frozen"). A frozen patch whose
+  untouched taxels replay 0 N is refused here too, as a dead region. A block is decided when
+  it is complete (every ``frozen_window`` of touched frames; an untouched frame starts a new
+  one).
 
-A patch failing either check is *implausible*: its frames are refused (:class:`SkinImplausible`,
+A patch with a dead region is *implausible*: its frames are refused (:class:`SkinImplausible`,
 an :class:`~contact_estimation.frame_checks.InvalidTaxelData`) — counted, reported ERROR on
 diagnostics, no contact state published — so the controller's contact input goes stale and it
 commands an exact zero (its input freshness rules). The verdict clears by itself when the
-statistics are plausible again: the silent taxels show noise again (fewer than the fraction),
-resp. a complete block of touched frames varies again (or the patch is released).
+statistics are plausible again: the silent taxels show noise again (fewer than the fraction).
+A still verdict clears with a complete block of touched frames that varies again, or a
+release.
 """
 
 from __future__ import annotations
@@ -42,11 +49,11 @@ FloatArray = NDArray[np.floating]
 
 
 class SkinImplausible(InvalidTaxelData):
-    """A patch's readings are implausible (dead region, frozen); its frames are refused.
+    """A patch's readings are implausible (a dead region); its frames are refused.
 
     Attributes:
         patch: the patch.
-        kind: ``dead_region`` or ``frozen``.
+        kind: ``dead_region``.
     """
 
     def __init__(self, patch: str, kind: str, message: str) -> None:
@@ -61,12 +68,12 @@ class PlausibilityConfig:
     Attributes:
         dead_time: a taxel unchanged this long is silent [s] (0 = no dead-region check).
         max_dead_fraction: largest share of silent taxels a patch may have [-].
-        frozen_window: length of a block of touched frames [s] (0 = no frozen check).
+        frozen_window: length of a block of touched frames [s] (0 = no stillness report).
         frozen_force_ratio: a block whose contact force range is below this fraction of its
             mean … [-]
         frozen_center_range: … and whose contact centre moves less than this on every axis is
-            frozen [m].
-        min_force: a frame is touched for the frozen check when its contact force reaches this
+            still [m].
+        min_force: a frame is touched for the stillness report when its contact force reaches this
             [N].
     """
 
@@ -148,14 +155,15 @@ class _Block:
 
 
 class FrozenDetector:
-    """Frozen-but-noisy contacts per link (module docstring, "Frozen but noisy"): running
-    minimum and maximum of the contact force and centre over a block, O(1) per frame."""
+    """Still contacts per link (module docstring, "Still"): running minimum and maximum of the
+    contact force and centre over a block, O(1) per frame. Reports; never refuses."""
 
     def __init__(self, config: PlausibilityConfig) -> None:
         self.config = config
         self._blocks: dict[str, _Block] = {}
         self.frozen: dict[str, str] = {}
-        """The verdict of each link's last complete block ('' = plausible, else why)."""
+        """The verdict of each link's last complete block ('' = varying, else why it is
+        still)."""
 
     def forget(self, key: str | None = None) -> None:
         """Drop the block and verdict of ``key`` (every one: ``None``)."""
@@ -166,21 +174,23 @@ class FrozenDetector:
                 table.pop(key, None)
 
     def check(self, patch: str, force: float, center: tuple[float, float, float],
-              in_contact: bool, stamp_ns: int) -> None:
+              in_contact: bool, stamp_ns: int) -> str:
         """Take the contact state of ``patch``'s link after one of its accepted frames: its
         force magnitude [N], centre [m] (link frame), whether touched.
 
-        Raises:
-            SkinImplausible: the link's last complete block of touched frames was frozen.
+        Returns:
+            Why the link's last complete block of touched frames was still ('' = it varied,
+            or the link is released): a report, not a refusal (module docstring).
         """
         window_ns = int(self.config.frozen_window * 1e9)
         if window_ns <= 0:
-            return
+            self.frozen.pop(patch, None)
+            return ""
         block = self._blocks.get(patch)
         if not in_contact or force < self.config.min_force:
             self._blocks[patch] = _Block(start_ns=stamp_ns)
             self.frozen[patch] = ""
-            return
+            return ""
         if block is None or block.frames == 0:
             block = self._blocks[patch] = _Block(start_ns=stamp_ns)
         block.frames += 1
@@ -193,12 +203,10 @@ class FrozenDetector:
         if stamp_ns - block.start_ns >= window_ns:
             self.frozen[patch] = self._verdict(block)
             self._blocks[patch] = _Block()
-        why = self.frozen.get(patch, "")
-        if why:
-            raise SkinImplausible(patch, "frozen", why)
+        return self.frozen.get(patch, "")
 
     def _verdict(self, block: _Block) -> str:
-        """Why a complete block is frozen ('' = it is not)."""
+        """Why a complete block is still ('' = it is not)."""
         mean = block.f_sum / block.frames
         ratio = (block.f_max - block.f_min) / mean
         moved = max(hi - lo for lo, hi in zip(block.c_min, block.c_max, strict=True))
@@ -206,6 +214,6 @@ class FrozenDetector:
         if ratio < cfg.frozen_force_ratio and moved < cfg.frozen_center_range:
             return (f"its contact force stayed within {100 * ratio:.2f} % of {mean:.3g} N and its "
                     f"centre within {1e3 * moved:.3f} mm for {cfg.frozen_window:g} s of contact "
-                    f"(a touched link varies by more than {100 * cfg.frozen_force_ratio:g} % or "
-                    f"{1e3 * cfg.frozen_center_range:g} mm: plausibility_frozen_window)")
+                    f"(plausibility_frozen_window); not refused: the controller checks a still "
+                    f"skin against the joints")
         return ""
