@@ -11,6 +11,7 @@ in ``test_equivalence.py``), and the task state rows after the run.
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -178,3 +179,50 @@ def test_non_finite_qp_data_raises_on_both_kernels(kernel: str) -> None:
     with np.errstate(over="ignore", invalid="ignore"), \
             pytest.raises(QPError, match="not finite"):
         ctl.step(Q0, {link: state})
+
+
+def test_every_entry_point_shows_numba_where_its_cache_lies() -> None:
+    """The stale-cache guard finds the cache of each compiled entry point with the installed
+    numba: where it could not (numba 0.68 keeps the index path on the cache *file*), a changed
+    step ran the machine code of the old source."""
+    from numba import njit
+
+    from wholebody_controller import kernels, task_step, whole_step
+
+    for function in (task_step.step_links, whole_step.qp_of_step, whole_step.step_robot):
+        stem = kernels._cache_stem(njit(cache=True)(function))
+        assert stem is not None, function.__name__
+        assert stem.name.startswith(f"{function.__module__.rsplit('.', 1)[1]}."
+                                    f"{function.__name__}-")
+
+
+class _CacheFile:
+    def __init__(self, index: Path) -> None:
+        self._index_path = str(index)
+
+
+class _Dispatcher:
+    def __init__(self, index: Path) -> None:
+        self._cache = type("Cache", (), {"_cache_file": _CacheFile(index)})()
+
+
+def test_a_changed_step_source_drops_the_compiled_code_and_a_current_one_keeps_it(
+        tmp_path: Path) -> None:
+    """A cache stamped with another source fingerprint is deleted and re-stamped; one stamped
+    with the current fingerprint is kept."""
+    from wholebody_controller import kernels
+
+    index = tmp_path / "whole_step.step_robot-80.py311.nbi"
+    data = tmp_path / "whole_step.step_robot-80.py311.1.nbc"
+    stamp = tmp_path / "whole_step.step_robot-80.py311.sources"
+    other = tmp_path / "whole_step.qp_of_step-120.py311.nbi"
+    for path in (index, data, other):
+        path.write_bytes(b"machine code")
+    stamp.write_text("fingerprint of an older source")
+    kernels._drop_stale_cache([_Dispatcher(index)])
+    assert not index.exists() and not data.exists() and other.exists()
+    current = stamp.read_text()
+    assert current != "fingerprint of an older source" and len(current) == 64
+    index.write_bytes(b"machine code of the current source")
+    kernels._drop_stale_cache([_Dispatcher(index)])
+    assert index.exists() and stamp.read_text() == current

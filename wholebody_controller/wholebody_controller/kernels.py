@@ -83,20 +83,31 @@ def step_kernel(name: str) -> StepKernel:
     raise ValueError(f"parameter 'kernel' refused value {name!r}: allowed {', '.join(KERNELS)}")
 
 
+def _cache_stem(dispatcher: Any) -> Path | None:
+    """Where numba keeps ``dispatcher``'s machine code: its index file's path without ``.nbi``
+    (the ``.nbc`` data files and our ``.sources`` stamp share that stem); None where numba lays
+    its cache out otherwise (then numba's own rules apply)."""
+    cache_file = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
+    index = getattr(cache_file, "_index_path", None)  # numba's private layout, 0.49 to 0.6x
+    if not isinstance(index, str | Path) or not str(index).endswith(".nbi"):
+        return None
+    return Path(str(index)[: -len(".nbi")])
+
+
 def _drop_stale_cache(dispatchers: list[Any]) -> None:
     """Delete the entry points' cached machine code if the step's source changed since it was
     written (a fingerprint of :data:`STEP_MODULES` beside each cache)."""
     digest = hashlib.sha256(b"".join(inspect.getsource(m).encode() for m in STEP_MODULES))
     for dispatcher in dispatchers:
+        stem = _cache_stem(dispatcher)
+        if stem is None:
+            continue
+        stamp = stem.with_name(f"{stem.name}.sources")
         try:
-            cache = dispatcher._cache  # numba's per-function cache (private, stable since 0.49)
-            folder = Path(cache._cache_path)
-            stem = cache._index_name.rsplit(".nbi", 1)[0]
-            stamp = folder / f"{stem}.sources"
             if stamp.exists() and stamp.read_text() == digest.hexdigest():
                 continue
-            for path in folder.glob(f"{stem}*.nb[ic]"):
+            for path in stem.parent.glob(f"{stem.name}*.nb[ic]"):
                 path.unlink(missing_ok=True)
             stamp.write_text(digest.hexdigest())
-        except (OSError, AttributeError):  # read-only install, or a numba without this layout:
-            pass  # numba then recompiles in memory or keeps its own rules
+        except OSError:  # a read-only install: numba then recompiles in memory
+            pass
