@@ -217,12 +217,12 @@ def test_the_session_scenario_is_the_files_values_and_leaves_the_catalogue(
     from phri_sim.scenarios.catalogue import SCENARIOS
 
     text = config_file("waltz").read_text(encoding="utf-8")
-    assert "    k_eta: 1000.0\n" in text
+    assert "    k_eta: 300.0\n" in text
     edited = tmp_path / "waltz.yaml"
-    edited.write_text(text.replace("    k_eta: 1000.0\n", "    k_eta: 900.0\n"), encoding="utf-8")
+    edited.write_text(text.replace("    k_eta: 300.0\n", "    k_eta: 900.0\n"), encoding="utf-8")
     values = session_scenario("waltz", edited)
     assert values.controller_parameters["k_eta"] == 900.0
     assert values.name == "waltz"
-    assert SCENARIOS["waltz"].controller_parameters["k_eta"] == 1000.0
+    assert SCENARIOS["waltz"].controller_parameters["k_eta"] == 300.0
     with pytest.raises(ValueError, match="parameter file is for scenario 'waltz'"):
         session_scenario("centring", edited)

@@ -9,6 +9,7 @@
     phri sim --scenario waltz --tempo-scale 2 --sway 1 --no-video   # a faster partner who sways
     phri sim --lead spin_left --no-video          # an unscripted lead (spins, pivots, box, …)
     phri sim --plant ideal                        # servos that follow every command at once
+                                                  # (default: realistic, a real robot's drives)
     phri ladder [--plant both] [--full]           # the tempo ladder against the bars
     phri followability [--short] [--tempo] --out runs/followability   # the followability map
     phri plot runs/waltz                          # panels again from the recording
@@ -216,12 +217,11 @@ def positive_number(text: str) -> float:
 
 def _plant_and_partner_arguments(sim: argparse.ArgumentParser) -> None:
     """``phri sim``'s plant and partner options (docs/phri_sim.md, "Plant", "The partner")."""
-    sim.add_argument("--plant", choices=PLANT_CHOICES, default="ideal",
-                     help="realistic: the base's command latency, acceleration and jerk limits "
-                          "and velocity-loop lag, the UR16e's RTDE cycle and speedJ ramp, the "
-                          "skin through the driver's 500 Hz moving average; ideal (default, "
-                          "until the controller holds the waltz on the realistic one): servos "
-                          "that follow every command at once")
+    sim.add_argument("--plant", choices=PLANT_CHOICES, default="realistic",
+                     help="realistic (default): the base's command latency, acceleration and "
+                          "jerk limits and velocity-loop lag, the UR16e's RTDE cycle and speedJ "
+                          "ramp, the skin through the driver's 500 Hz moving average; ideal: "
+                          "servos that follow every command at once")
     sim.add_argument("--tempo-scale", type=positive_number, default=1.0, metavar="K",
                      help="waltz: the routine danced K times faster (default 1)")
     sim.add_argument("--sway", type=int, default=None, metavar="SEED",

@@ -496,19 +496,29 @@ SLIDING_PARAMS = {
 }
 WHOLE_BODY_PARAMS = {**TABLE_II, **REGION_SETTINGS, **_admittance(paper.WHOLE_BODY)}
 WALTZ_FOLLOW = paper.Admittance(
-    inertia=(0.1, 0.1, 0.1, 0.1, 0.1, 0.01),
+    inertia=(1.0, 1.0, 0.1, 0.1, 0.1, 0.1),
     damping=(100.0, 100.0, 200.0, 200.0, 200.0, 0.2),
     stiffness=paper.six(0.0),
 )
 """The default waltz admittance (docs/wholebody_controller.md, "Following a turning partner"):
-the paper's Λ = 0.1, D = 200 except the horizontal translation, D = 100 N·s/m (the preload closes
-at 10 N / D = 0.1 m/s, twice the paper's, so a partner stepping away is followed), and the
-rotation about the vertical in its own units, Λ = 0.01 kg·m², D = 0.2 N·m·s/rad (a lead moment of
-10 N over 2.6 mm turns the link at the paper tempo's 0.13 rad/s)."""
-WALTZ_K_ETA = 1000.0
-"""Track-force gain of the waltz [N/m]: a partner stepping along the forearm at the paper tempo's
-0.055 m/s leaves Ω_d by 0.055 · D / k_η ≈ 5 mm (with Table II's 200: 2.7 cm, and the contact
-slides towards the link's end)."""
+the paper's Λ = 0.1, D = 200 except
+
+* the horizontal translation, D = 100 N·s/m (the preload closes at 10 N / D = 0.1 m/s, twice the
+  paper's, so a partner stepping away is followed) with Λ = 1.0 kg: the skin's force noise
+  reaches the command through a 16 Hz low-pass (D/Λ = 100 rad/s) instead of 160 Hz;
+* the rotation about the vertical in its own units, D = 0.2 N·m·s/rad (a lead moment of 10 N over
+  2.6 mm turns the link at the paper tempo's 0.13 rad/s) with Λ = 0.1 kg·m². Measured on the
+  realistic plant (first 40 s, seed 0): with Λ = 0.01 the base's 50 ms of latency and lag turn the
+  lead moment's loop into a growing 0.7 Hz yaw oscillation at the 0.15 rad/s limit and the hold
+  is lost at 15 s (band 35 %, heading drift 130°); with 0.05 or 0.1 it is held (band 100 %,
+  heading drift 6°)."""
+WALTZ_K_ETA = 300.0
+"""Track-force gain of the waltz [N/m]. The edge of Ω_i moves in steps of one taxel pitch
+(7.5 mm) as fringe taxels cross σ_t, and every step changes the track force (10)–(11) by
+k_η · 7.5 mm: 7.5 N with 1000 N/m, which on the realistic plant drove the base to its rated
+acceleration at every step (waist force above 1 Hz 0.61 N RMS over the first 70 s); 300 N/m makes
+the step 2.25 N (0.50 N RMS). A partner stepping along the forearm at the paper tempo's
+0.055 m/s leaves Ω_d by 0.055 · D / k_η ≈ 1.8 cm (with Table II's 200: 2.7 cm)."""
 WALTZ_DANCE_RANGE = 0.03
 """Half width of the q_dance band of the default set [rad]: with the paper's 0.1 the arms absorb
 the first ≈ 17° of a turn at the band's edges and the base, which carries the partner, lags the
