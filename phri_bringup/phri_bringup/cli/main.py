@@ -438,7 +438,7 @@ def _run_options(args: argparse.Namespace) -> Any:
 def _open_sinks(args: argparse.Namespace, out: Path, record_dir: Path | None) -> list[Any]:
     """The live view (``--foxglove``, first: a busy port stops the command before any file is
     written) and the recording sink; ValueError naming the option when one cannot open."""
-    from phri_bringup.observer.node import RecordingSink
+    from phri_bringup.observer.recording_process import BackgroundRecordingSink
 
     sinks: list[Any] = []
     if args.foxglove:
@@ -449,7 +449,8 @@ def _open_sinks(args: argparse.Namespace, out: Path, record_dir: Path | None) ->
     try:
         out.mkdir(parents=True, exist_ok=True)
         if record_dir is not None:
-            sinks.append(RecordingSink(str(record_dir), skin_rate_hz=args.skin_record_rate))
+            sinks.append(BackgroundRecordingSink(str(record_dir),
+                                                 skin_rate_hz=args.skin_record_rate))
     except (OSError, ValueError) as err:
         for sink in sinks:
             sink.close()
