@@ -108,6 +108,32 @@ def _decode(topic: str, msg: Any) -> Any:
     return msg_to_contact(msg)
 
 
+def _decode_cdr(topic: str, raw: bytes) -> Any:
+    """:func:`_decode` straight from the serialized bytes of phri's own layouts (no rclpy
+    message objects: a contact or task state's PointCloud2 carries 17 or 58 ``PointField`` s);
+    None for anything else, which :func:`read_tracks` deserializes and decodes."""
+    from phri_common.cdr import joint_state_from_cdr, odometry_pose_from_cdr
+    from phri_common.contact_cdr import contact_from_cdr
+
+    if topic == "/joint_states":
+        js = joint_state_from_cdr(raw)
+        return None if js is None else (list(js[0]), list(js[1]))
+    if topic == "/odom":
+        pose = odometry_pose_from_cdr(raw)
+        if pose is None:
+            return None
+        x, y, _z, qx, qy, qz, qw = pose
+        return (x, y, yaw_from_quaternion(qw, qx, qy, qz))
+    if topic == STATE_TOPIC:
+        from wholebody_controller.messages import task_state_from_cdr
+
+        state = task_state_from_cdr(raw)
+        return None if state is None else state["psi"]
+    if topic.startswith("/contacts/"):
+        return contact_from_cdr(raw)
+    return None
+
+
 def read_tracks(path: Path) -> Tracks:
     """The signals a video needs, from the recording at ``path`` (:data:`Tracks`)."""
     from rclpy.serialization import deserialize_message
@@ -119,8 +145,10 @@ def read_tracks(path: Path) -> Tracks:
     with AnyReader([path]) as reader:
         conns = [c for c in reader.connections if c.topic in topics]
         for conn, stamp, raw in reader.messages(connections=conns):
-            msg = deserialize_message(raw, ros_type(conn.msgtype))
-            rows.setdefault(conn.topic, []).append((stamp * 1e-9, _decode(conn.topic, msg)))
+            value = _decode_cdr(conn.topic, raw)
+            if value is None:
+                value = _decode(conn.topic, deserialize_message(raw, ros_type(conn.msgtype)))
+            rows.setdefault(conn.topic, []).append((stamp * 1e-9, value))
     return {k: Track(np.array([r[0] for r in v]), [r[1] for r in v]) for k, v in rows.items()}
 
 
