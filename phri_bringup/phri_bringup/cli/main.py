@@ -99,8 +99,8 @@ def _parser() -> argparse.ArgumentParser:
     video = sub.add_parser("video", help="MP4 of a recording, rendered offscreen")
     video.add_argument("run", help="run directory, recording directory or .mcap file")
     video.add_argument("--out", default=None, help="MP4 path (default RUN/video.mp4)")
-    video.add_argument("--fps", type=float, default=25.0)
-    video.add_argument("--size", default="1024x576", help="WIDTHxHEIGHT")
+    video.add_argument("--fps", type=float, default=15.0, help="frame rate (default 15)")
+    video.add_argument("--size", default="640x360", help="WIDTHxHEIGHT (default 640x360)")
 
     params = sub.add_parser("params", help="check or regenerate config/*.yaml")
     group = params.add_mutually_exclusive_group()

@@ -61,11 +61,16 @@ class VideoUnavailable(RuntimeError):
 
 @dataclass(frozen=True)
 class VideoOptions:
-    """Frame size [px], frame rate [1/s], playback speed (1 = real time), camera rig, overlay."""
+    """Frame size [px], frame rate [1/s], playback speed (1 = real time), camera rig, overlay.
 
-    width: int = 1024
-    height: int = 576
-    fps: float = 25.0
+    The defaults, 640 × 360 at 15 frames per second, show the couple, the steps, the force
+    arrow and the overlay clearly at a third of the cost of 1024 × 576 at 25 (the renderer is
+    Mesa's software rasteriser on a machine without a GPU; docs/benchmarks.md, "Main
+    command"); ``phri video --size 1024x576 --fps 25`` renders the larger one."""
+
+    width: int = 640
+    height: int = 360
+    fps: float = 15.0
     speed: float = 1.0
     camera: CameraRig = field(default_factory=CameraRig)
     overlay: bool = True
@@ -213,7 +218,8 @@ def _render_chunk(tracks: Tracks, opts: VideoOptions, out: Path, first: int, sto
     frames = FrameRenderer(tracks, opts)
     writer = imageio_ffmpeg.write_frames(str(out), (opts.width, opts.height), fps=opts.fps,
                                          codec="libx264", macro_block_size=16,
-                                         ffmpeg_log_level="error")
+                                         ffmpeg_log_level="error",
+                                         output_params=["-preset", "veryfast"])
     writer.send(None)
     try:
         for i, frame in enumerate(frames.frames(first, stop)):
@@ -271,6 +277,9 @@ class FrameRenderer:
         model.vis.global_.offheight = max(opts.height, int(model.vis.global_.offheight))
         # Multisampled offscreen buffers make reading pixels ~20× slower in Mesa's software GL.
         model.vis.quality.offsamples = 0
+        # Capsules and spheres of 12 × 8 facets instead of 28 × 16 (MuJoCo's default): the
+        # same picture at video size, a third less rendering in software GL.
+        model.vis.quality.numslices, model.vis.quality.numstacks = 12, 8
         model.vis.headlight.ambient[:] = 0.45
         model.vis.headlight.diffuse[:] = 0.55
         self.model, self.data = model, mujoco.MjData(model)
