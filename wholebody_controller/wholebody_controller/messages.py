@@ -188,7 +188,7 @@ def task_state_to_msg(
 
 def task_state_from_cdr(data: bytes) -> dict[str, float] | None:
     """:func:`msg_to_task_state` of a serialized PointCloud2 in the layout
-    :func:`task_state_to_msg` writes, read from the bytes (no rclpy message objects, whose 58
+    :func:`task_state_to_msg` writes, read from the bytes (no rclpy message objects, whose 40
     ``PointField`` s cost far more than the record); ``None`` for any other layout, which the
     caller deserializes and decodes with :func:`msg_to_task_state`, the reference."""
     header = cloud_header(data)

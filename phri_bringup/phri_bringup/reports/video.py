@@ -115,7 +115,7 @@ def _decode(topic: str, msg: Any) -> Any:
 
 def _decode_cdr(topic: str, raw: bytes) -> Any:
     """:func:`_decode` straight from the serialized bytes of phri's own layouts (no rclpy
-    message objects: a contact or task state's PointCloud2 carries 17 or 58 ``PointField`` s);
+    message objects: a contact or task state's PointCloud2 carries 17 or 40 ``PointField`` s);
     None for anything else, which :func:`read_tracks` deserializes and decodes."""
     from phri_common.cdr import joint_state_from_cdr, odometry_pose_from_cdr
     from phri_common.contact_cdr import contact_from_cdr
