@@ -70,6 +70,11 @@ def test_ctrl_c_stops_with_zero_velocity_and_leaves_no_process(tmp_path: Path) -
     code = proc.wait(timeout=60)
     assert code == 130, rest[-3000:]
     assert "zero velocity published at exit: yes" in rest
+    # The recording and baseline processes are joined before the command exits; multiprocessing's
+    # resource tracker ends on its own when it sees the command gone, a moment later.
+    deadline = time.monotonic() + 5.0
+    while _session_processes(proc.pid) and time.monotonic() < deadline:
+        time.sleep(0.1)
     assert _session_processes(proc.pid) == []
     from rosbags.highlevel import AnyReader
 

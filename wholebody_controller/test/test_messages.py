@@ -18,6 +18,7 @@ from wholebody_controller.messages import (
     joint_positions,
     msg_to_task_state,
     odom_to_base,
+    task_state_from_cdr,
     task_state_to_msg,
 )
 
@@ -91,6 +92,30 @@ def test_task_state_round_trip_keeps_every_field() -> None:
     assert (msg.header.stamp.sec, msg.header.stamp.nanosec) == (123, 456)
     assert [f.name for f in msg.fields] == list(TASK_STATE_FIELDS)
     assert msg_to_task_state(msg) == expected
+    from rclpy.serialization import serialize_message
+
+    for frame in ("odom", "world_frame_"):  # either padding after the frame id
+        msg.header.frame_id = frame
+        assert task_state_from_cdr(serialize_message(msg)) == expected
+
+
+def test_task_state_bytes_of_another_layout_are_left_to_the_reference() -> None:
+    """task_state_from_cdr reads only the layout task_state_to_msg writes: a cloud with other
+    fields (a contact state) or truncated bytes give None (the caller deserializes)."""
+    from rclpy.serialization import serialize_message
+
+    from phri_common.contact import contact_to_msg
+    from phri_common.records import ContactState
+
+    contact = ContactState("left_forearm_link", 5, True, center=(0.1, 0.0, 0.0),
+                           force=(0.0, 5.0, 0.0))
+    assert task_state_from_cdr(serialize_message(contact_to_msg(contact))) is None
+    task = TaskOutput(link="l", phase=Phase.ACTIVE, psi=1.0, psi_raw=1.0, in_contact=True,
+                      values=tuple(0.0 for _ in range(N_VALUES)))
+    raw = serialize_message(task_state_to_msg(task, np.zeros(6), 1, "odom"))
+    assert task_state_from_cdr(raw) is not None
+    assert task_state_from_cdr(raw[:-60]) is None
+    assert task_state_from_cdr(b"\x00\x00" + raw[2:]) is None  # big endian: not read here
 
 
 def test_safety_status_levels() -> None:

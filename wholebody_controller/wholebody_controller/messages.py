@@ -31,6 +31,7 @@ from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Float64MultiArray, Header, MultiArrayDimension
 
 from phri_common.cloud import cloud_records, point_fields, record_dtype
+from phri_common.contact_cdr import Template, cloud_header, layout_template, matches
 from phri_common.periodic import PeriodicThread
 from phri_common.planar import yaw_from_quaternion
 from phri_common.stamps import ns_to_stamp
@@ -77,6 +78,8 @@ TASK_STATE_FIELDS: tuple[str, ...] = tuple(_STATE_DTYPE.names or ())
 _STATE_FIELDS = point_fields(_STATE_DTYPE)
 _STATE_PACK = struct.Struct(f"<{len(TASK_STATE_FIELDS) - 2}dBB")
 assert _STATE_PACK.size == _STATE_DTYPE.itemsize
+_STATE_TEMPLATE = Template(*layout_template(_STATE_FIELDS, _STATE_PACK.size))
+"""The task state's CDR bytes from height to the data length (:func:`task_state_from_cdr`)."""
 
 
 def command_to_twist(command: Array) -> Twist:
@@ -181,6 +184,22 @@ def task_state_to_msg(
         data=data,
         is_dense=True,
     )
+
+
+def task_state_from_cdr(data: bytes) -> dict[str, float] | None:
+    """:func:`msg_to_task_state` of a serialized PointCloud2 in the layout
+    :func:`task_state_to_msg` writes, read from the bytes (no rclpy message objects, whose 40
+    ``PointField`` s cost far more than the record); ``None`` for any other layout, which the
+    caller deserializes and decodes with :func:`msg_to_task_state`, the reference."""
+    header = cloud_header(data)
+    if header is None:
+        return None
+    start = header[2]
+    end = start + _STATE_TEMPLATE.size
+    if len(data) < end + _STATE_PACK.size or not matches(data, start, _STATE_TEMPLATE):
+        return None
+    values = _STATE_PACK.unpack_from(data, end)
+    return {name: float(value) for name, value in zip(TASK_STATE_FIELDS, values, strict=True)}
 
 
 def msg_to_task_state(msg: PointCloud2) -> dict[str, float]:

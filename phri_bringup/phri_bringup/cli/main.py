@@ -100,8 +100,8 @@ def _parser() -> argparse.ArgumentParser:
     video = sub.add_parser("video", help="MP4 of a recording, rendered offscreen")
     video.add_argument("run", help="run directory, recording directory or .mcap file")
     video.add_argument("--out", default=None, help="MP4 path (default RUN/video.mp4)")
-    video.add_argument("--fps", type=float, default=25.0)
-    video.add_argument("--size", default="1024x576", help="WIDTHxHEIGHT")
+    video.add_argument("--fps", type=float, default=15.0, help="frame rate (default 15)")
+    video.add_argument("--size", default="640x360", help="WIDTHxHEIGHT (default 640x360)")
 
     params = sub.add_parser("params", help="check or regenerate config/*.yaml")
     group = params.add_mutually_exclusive_group()
@@ -336,7 +336,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
     out = Path(args.out or f"runs/{stem}")
     record_dir = None if args.no_record else Path(args.record or out / "recording")
     sinks = _open_sinks(args, out, record_dir)
-    _enter_domain(args)
+    baseline = _start_baseline(args, name, _enter_domain(args))
     pace = args.realtime if args.realtime is not None else (1.0 if args.foxglove else None)
     stop = StopFlag()
     previous = {sig: signal.signal(sig, stop.set) for sig in (signal.SIGINT, signal.SIGTERM)}
@@ -349,6 +349,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
                              inspect=runs.append, vary=vary)
     except Exception as err:
         _log(f"run failed: {type(err).__name__}: {err}")
+        _cancel(baseline)
         return 2 if isinstance(err, ValueError) else 1
     finally:
         for sig, h in previous.items():
@@ -360,13 +361,14 @@ def cmd_sim(args: argparse.Namespace) -> int:
              f"open {recording_file(record_dir)})")
     if result.interrupted:
         _log("stopped before the end: recording closed, no metrics, plots or video")
+        _cancel(baseline)
         return 130
     metrics = dict(result.metrics)
     _report_safety(metrics)
     metrics["zero_velocity_at_exit"] = result.zero_at_exit
     metrics["seed"] = args.seed
-    video = _start_video(args, name, record_dir, out)  # renders while the baseline runs
-    _following(args, name, metrics, runs, out)
+    video = _start_video(args, name, record_dir, out)
+    _following(args, name, metrics, runs, out, baseline)
     metrics["bringup"] = {"run_wall_time": run_wall, **_plots(args, name, record_dir, out)}
     _finish_video(video)
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2, allow_nan=True) + "\n",
@@ -438,7 +440,7 @@ def _run_options(args: argparse.Namespace) -> Any:
 def _open_sinks(args: argparse.Namespace, out: Path, record_dir: Path | None) -> list[Any]:
     """The live view (``--foxglove``, first: a busy port stops the command before any file is
     written) and the recording sink; ValueError naming the option when one cannot open."""
-    from phri_bringup.observer.node import RecordingSink
+    from phri_bringup.observer.recording_process import BackgroundRecordingSink
 
     sinks: list[Any] = []
     if args.foxglove:
@@ -449,7 +451,8 @@ def _open_sinks(args: argparse.Namespace, out: Path, record_dir: Path | None) ->
     try:
         out.mkdir(parents=True, exist_ok=True)
         if record_dir is not None:
-            sinks.append(RecordingSink(str(record_dir), skin_rate_hz=args.skin_record_rate))
+            sinks.append(BackgroundRecordingSink(str(record_dir),
+                                                 skin_rate_hz=args.skin_record_rate))
     except (OSError, ValueError) as err:
         for sink in sinks:
             sink.close()
@@ -457,23 +460,42 @@ def _open_sinks(args: argparse.Namespace, out: Path, record_dir: Path | None) ->
     return sinks
 
 
+def _start_baseline(args: argparse.Namespace, name: str, domain: int) -> Any:
+    """Start the motionless baseline beside the run (:mod:`phri_bringup.cli.baseline`) for a
+    scenario with following metrics (the waltz), unless ``--no-baseline``; None otherwise."""
+    from phri_bringup.cli.baseline import MotionlessBaseline, Recipe
+
+    if args.baseline is False:
+        return None
+    recipe = Recipe.of(name, args.params, args)
+    if recipe.scenario().metrics != "waltz":  # no following metrics: nothing to compare
+        return None
+    _log("motionless baseline: the same scenario with zero commands, beside the run")
+    return MotionlessBaseline(recipe, _run_options(args), domain)
+
+
+def _cancel(baseline: Any) -> None:
+    if baseline is not None:
+        baseline.cancel()
+
+
 def _following(args: argparse.Namespace, name: str, metrics: dict[str, Any], runs: list[Any],
-               out: Path) -> None:
-    """For a scenario with following metrics (the waltz): the motionless baseline (unless
-    ``--no-baseline``) into ``metrics['motionless']``, the side-by-side table, and
+               out: Path, baseline: Any) -> None:
+    """For a scenario with following metrics (the waltz): the motionless baseline started by
+    :func:`_start_baseline` into ``metrics['motionless']``, the side-by-side table, and
     ``plots/following.png``."""
-    from phri_bringup.reports.following_report import plot_following, run_motionless, side_by_side
+    from phri_bringup.reports.following_report import plot_following, side_by_side
 
     if "following" not in metrics:
+        _cancel(baseline)
         if args.baseline:
             _log(f"--baseline: scenario {name} has no following metrics; no baseline run")
         return
     series = runs[0].metrics.following_series()
     still, still_series = None, None
-    if args.baseline is not False:
-        _log("motionless baseline: the same scenario with zero commands")
+    if baseline is not None:
         # The same scenario value (parameters, partner, lead) and plant, a motionless robot.
-        still, still_series = run_motionless(runs[0].scenario, runs[0].options)
+        still, still_series = baseline.result()
         metrics["motionless"] = still
     for line in side_by_side(metrics["following"],
                              None if still is None else still.get("following")):

@@ -34,6 +34,7 @@ from phri_bringup.graph.nodes import (
 )
 from phri_bringup.observer.bag import McapRecording, encode, ros_type, stamp_ns_of, tf_message
 from phri_bringup.observer.link_frames import RobotFrames, split_static
+from phri_bringup.observer.recording_process import SkinDecimation
 from phri_common.planar import yaw_from_quaternion
 
 COMMAND_TOPICS: dict[str, type[Any]] = {
@@ -113,9 +114,8 @@ class RecordingSink:
         self.recording = McapRecording(directory)
         for spec in (*SIM_TOPICS, *RECORDED_EXTRA_TOPICS):
             self.recording.declare(spec.name, spec.type)
-        self.skin_period_ns = 0 if skin_rate_hz <= 0 else round(1e9 / skin_rate_hz)
+        self.skin = SkinDecimation(skin_rate_hz)
         self.tf_period_ns = round(1e9 / tf_rate_hz)
-        self._last_skin: dict[str, int] = {}
         self._last_tf = -math.inf
         self._latched_written = False
         self.state = RobotState()
@@ -134,13 +134,8 @@ class RecordingSink:
     def on_message(self, topic: str, type_name: str, raw: bytes, stamp_ns: int) -> None:
         if not self._latched_written:
             self._write_latched(stamp_ns)
-        if topic.startswith("/skin/") and self.skin_period_ns:
-            last = self._last_skin.get(topic)
-            # Half a period of slack keeps the decimation exact on a 100 Hz frame grid.
-            keep_after = self.skin_period_ns - self.skin_period_ns // 2
-            if last is not None and stamp_ns - last < keep_after:
-                return
-            self._last_skin[topic] = stamp_ns
+        if not self.skin.keep(topic, stamp_ns):
+            return
         self.recording.add(topic, type_name, raw, stamp_ns)
         if self.state.update(topic, raw) and stamp_ns - self._last_tf >= self.tf_period_ns:
             self._last_tf = stamp_ns

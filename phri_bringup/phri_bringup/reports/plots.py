@@ -98,8 +98,9 @@ def read_run(path: str | Path) -> RunData:
             ("/contacts/left", "/contacts/right", "/sim/", STATE_PREFIX, "/joint_states",
              "/cmd_vel", "/odom"))]
         for conn, stamp, raw in reader.messages(connections=wanted):
-            msg = deserialize_message(raw, ros_type(conn.msgtype))
-            _add_sample(conn.topic, msg, stamp * 1e-9, rows, data)
+            if not _add_cdr_sample(conn.topic, raw, stamp * 1e-9, rows):
+                msg = deserialize_message(raw, ros_type(conn.msgtype))
+                _add_sample(conn.topic, msg, stamp * 1e-9, rows, data)
     for link in SKIN_LINKS:
         data.force[link] = Series.of(rows["force/" + link], 3)
         data.torque[link] = Series.of(rows["torque/" + link], 3)
@@ -121,23 +122,48 @@ STATE_PREFIX = f"/{CONTROLLER}/state/"
 """Topic prefix of the controller's per-link task state."""
 
 
+def _add_contact(link: str, c: Any, t: float, rows: Rows) -> None:
+    rows["force/" + link].append((t, list(c.force)))
+    rows["torque/" + link].append((t, list(c.torque)))
+    rows["centre/" + link].append((t, list(c.center)))
+    rows["in_contact/" + link].append((t, [float(c.in_contact)]))
+    rows["region/" + link].append((t, [*c.region_min, *c.region_max]))
+
+
+def _add_state(link: str, state: dict[str, float], t: float, rows: Rows) -> None:
+    rows["psi/" + link].append((t, [state["psi"]]))
+    rows["track/" + link].append((t, [state[f"track_force_{a}"] for a in "xyz"]))
+
+
+def _add_cdr_sample(topic: str, raw: bytes, t: float, rows: Rows) -> bool:
+    """File a contact or task state read straight from its serialized bytes (phri's own
+    layouts, no rclpy message objects: their ``PointField`` s cost far more than the record);
+    False for anything else, which :func:`_add_sample` decodes."""
+    from phri_common.contact_cdr import contact_from_cdr
+    from wholebody_controller.messages import task_state_from_cdr
+
+    if topic.startswith("/contacts/"):
+        contact = contact_from_cdr(raw)
+        if contact is not None:
+            _add_contact(topic.split("/")[-1], contact, t, rows)
+        return contact is not None
+    if topic.startswith(STATE_PREFIX):
+        state = task_state_from_cdr(raw)
+        if state is not None:
+            _add_state(topic[len(STATE_PREFIX):], state, t, rows)
+        return state is not None
+    return False
+
+
 def _add_sample(topic: str, msg: Any, t: float, rows: Rows, data: RunData) -> None:
     """File one decoded message at time ``t`` [s] under its series key(s)."""
     from phri_common.contact import msg_to_contact
     from wholebody_controller.messages import msg_to_task_state
 
     if topic.startswith("/contacts/"):
-        c = msg_to_contact(msg)
-        link = topic.split("/")[-1]
-        rows["force/" + link].append((t, list(c.force)))
-        rows["torque/" + link].append((t, list(c.torque)))
-        rows["centre/" + link].append((t, list(c.center)))
-        rows["in_contact/" + link].append((t, [float(c.in_contact)]))
-        rows["region/" + link].append((t, [*c.region_min, *c.region_max]))
+        _add_contact(topic.split("/")[-1], msg_to_contact(msg), t, rows)
     elif topic.startswith(STATE_PREFIX):
-        state, link = msg_to_task_state(msg), topic[len(STATE_PREFIX):]
-        rows["psi/" + link].append((t, [state["psi"]]))
-        rows["track/" + link].append((t, [state[f"track_force_{a}"] for a in "xyz"]))
+        _add_state(topic[len(STATE_PREFIX):], msg_to_task_state(msg), t, rows)
     elif topic.endswith("/wrench"):
         f = msg.wrench.force
         rows["true_force/" + topic.split("/")[3]].append((t, [f.x, f.y, f.z]))

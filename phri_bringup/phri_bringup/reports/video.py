@@ -61,11 +61,16 @@ class VideoUnavailable(RuntimeError):
 
 @dataclass(frozen=True)
 class VideoOptions:
-    """Frame size [px], frame rate [1/s], playback speed (1 = real time), camera rig, overlay."""
+    """Frame size [px], frame rate [1/s], playback speed (1 = real time), camera rig, overlay.
 
-    width: int = 1024
-    height: int = 576
-    fps: float = 25.0
+    The defaults, 640 × 360 at 15 frames per second, show the couple, the steps, the force
+    arrow and the overlay clearly at a third of the cost of 1024 × 576 at 25 (the renderer is
+    Mesa's software rasteriser on a machine without a GPU; docs/benchmarks.md, "Main
+    command"); ``phri video --size 1024x576 --fps 25`` renders the larger one."""
+
+    width: int = 640
+    height: int = 360
+    fps: float = 15.0
     speed: float = 1.0
     camera: CameraRig = field(default_factory=CameraRig)
     overlay: bool = True
@@ -108,6 +113,32 @@ def _decode(topic: str, msg: Any) -> Any:
     return msg_to_contact(msg)
 
 
+def _decode_cdr(topic: str, raw: bytes) -> Any:
+    """:func:`_decode` straight from the serialized bytes of phri's own layouts (no rclpy
+    message objects: a contact or task state's PointCloud2 carries 17 or 40 ``PointField`` s);
+    None for anything else, which :func:`read_tracks` deserializes and decodes."""
+    from phri_common.cdr import joint_state_from_cdr, odometry_pose_from_cdr
+    from phri_common.contact_cdr import contact_from_cdr
+
+    if topic == "/joint_states":
+        js = joint_state_from_cdr(raw)
+        return None if js is None else (list(js[0]), list(js[1]))
+    if topic == "/odom":
+        pose = odometry_pose_from_cdr(raw)
+        if pose is None:
+            return None
+        x, y, _z, qx, qy, qz, qw = pose
+        return (x, y, yaw_from_quaternion(qw, qx, qy, qz))
+    if topic == STATE_TOPIC:
+        from wholebody_controller.messages import task_state_from_cdr
+
+        state = task_state_from_cdr(raw)
+        return None if state is None else state["psi"]
+    if topic.startswith("/contacts/"):
+        return contact_from_cdr(raw)
+    return None
+
+
 def read_tracks(path: Path) -> Tracks:
     """The signals a video needs, from the recording at ``path`` (:data:`Tracks`)."""
     from rclpy.serialization import deserialize_message
@@ -119,8 +150,10 @@ def read_tracks(path: Path) -> Tracks:
     with AnyReader([path]) as reader:
         conns = [c for c in reader.connections if c.topic in topics]
         for conn, stamp, raw in reader.messages(connections=conns):
-            msg = deserialize_message(raw, ros_type(conn.msgtype))
-            rows.setdefault(conn.topic, []).append((stamp * 1e-9, _decode(conn.topic, msg)))
+            value = _decode_cdr(conn.topic, raw)
+            if value is None:
+                value = _decode(conn.topic, deserialize_message(raw, ros_type(conn.msgtype)))
+            rows.setdefault(conn.topic, []).append((stamp * 1e-9, value))
     return {k: Track(np.array([r[0] for r in v]), [r[1] for r in v]) for k, v in rows.items()}
 
 
@@ -185,7 +218,8 @@ def _render_chunk(tracks: Tracks, opts: VideoOptions, out: Path, first: int, sto
     frames = FrameRenderer(tracks, opts)
     writer = imageio_ffmpeg.write_frames(str(out), (opts.width, opts.height), fps=opts.fps,
                                          codec="libx264", macro_block_size=16,
-                                         ffmpeg_log_level="error")
+                                         ffmpeg_log_level="error",
+                                         output_params=["-preset", "veryfast"])
     writer.send(None)
     try:
         for i, frame in enumerate(frames.frames(first, stop)):
@@ -243,6 +277,9 @@ class FrameRenderer:
         model.vis.global_.offheight = max(opts.height, int(model.vis.global_.offheight))
         # Multisampled offscreen buffers make reading pixels ~20× slower in Mesa's software GL.
         model.vis.quality.offsamples = 0
+        # Capsules and spheres of 12 × 8 facets instead of 28 × 16 (MuJoCo's default): the
+        # same picture at video size, a third less rendering in software GL.
+        model.vis.quality.numslices, model.vis.quality.numstacks = 12, 8
         model.vis.headlight.ambient[:] = 0.45
         model.vis.headlight.diffuse[:] = 0.55
         self.model, self.data = model, mujoco.MjData(model)

@@ -9,8 +9,9 @@ never ends it.
 
 What ends a run is a node that can no longer answer, and :class:`LockStep` tells which:
 
-* at once, when a node of the run has been destroyed or taken off the executor, its control loop
-  died (``fatal_error``), or the context was shut down;
+* at once (within :data:`ALIVE_CHECK_PERIOD` of wall time), when a node of the run has been
+  destroyed or taken off the executor, its control loop died (``fatal_error``), or the context
+  was shut down;
 * when, for :data:`STALL_LIMIT` of wall time, nothing the phase waits for arrived: a node that is
   alive but silent (a timer that no longer fires, messages that never reach their subscriber).
   The bound is very generous on purpose: it only keeps a genuinely dead run from hanging forever,
@@ -33,6 +34,10 @@ STALL_WARNING = 10.0
 """Wall time [s] of such silence after which one warning names what is missing."""
 SPIN_SLICE = 0.05
 """Longest single wait of the executor [s] between two checks."""
+ALIVE_CHECK_PERIOD = SPIN_SLICE
+"""Wall time [s] between two checks that the run's nodes are alive while a phase waits: a
+phase spins the executor about 28 times per control period, one callback a spin, and asking
+every node whether it still exists on every spin cost a twentieth of the run."""
 
 Missing = Callable[[], Sequence[str]]
 """What a phase still waits for (topic or channel names); empty when the phase is complete."""
@@ -108,15 +113,17 @@ class LockStep:
         waiting = list(missing())
         if not waiting:
             return
-        since = self.clock()
+        since = checked = self.clock()
         warned = False
         while True:
-            self.check_alive(what, sim_time)
             self.executor.spin_once(timeout_sec=SPIN_SLICE)
             now_missing = list(missing())
             if not now_missing:
                 return
             now = self.clock()
+            if now - checked >= ALIVE_CHECK_PERIOD:
+                self.check_alive(what, sim_time)
+                checked = now
             if now_missing != waiting:  # something arrived: the run is progressing
                 waiting, since, warned = now_missing, now, False
             silent = now - since

@@ -1,0 +1,129 @@
+"""The MCAP recording written by a process of its own (no rclpy: pure multiprocessing).
+
+:class:`~phri_bringup.observer.node.RecordingSink` does real work per message — the taxel
+arrays' decimation, the MCAP chunks and their zstd compression, ``/tf`` by forward kinematics
+and a pure-Python CDR encoder at 50 Hz — about a quarter of a lock-step run's time when it runs
+beside the simulation on the executor's thread. :class:`BackgroundRecordingSink` is the same
+sink in a spawned process: the observer node's callback only keeps the message (the taxel
+arrays the recording drops are dropped here already, by the same rule) and hands batches of
+them to the process through a queue, whose feeder thread writes them to a pipe. The process feeds
+them, in order, to a :class:`RecordingSink`; the recording is the same file, message for
+message.
+
+The process ignores Ctrl-C and SIGTERM (sent to the whole process group by a terminal or a
+``timeout``): it ends when the sink is closed, having closed the recording, or when its parent
+is gone.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import queue
+import signal
+from pathlib import Path
+from typing import Any
+
+from phri_bringup.observer.bag import clear_previous_recording
+
+BATCH = 256
+"""Messages handed to the recording process at once (one pickle, one pipe write)."""
+PARENT_POLL_S = 1.0
+"""How often [s] an idle recording process checks that its parent still runs."""
+Message = tuple[str, str, bytes, int]
+"""(topic, type name, CDR bytes, time [ns]): what a sink's ``on_message`` gets."""
+
+
+class SkinDecimation:
+    """Which taxel arrays a recording keeps, per patch topic: a frame once half a period
+    (1 / ``skin_rate_hz``, sim time) has passed since the last kept one; every frame with 0.
+    (The recorder's rule as it has been: ``skin_rate_hz`` 10 keeps a 100 Hz stream's frames
+    50 ms apart.)"""
+
+    def __init__(self, skin_rate_hz: float) -> None:
+        period = 0 if skin_rate_hz <= 0 else round(1e9 / skin_rate_hz)
+        self.keep_after = period - period // 2
+        self._last: dict[str, int] = {}
+
+    def keep(self, topic: str, stamp_ns: int) -> bool:
+        """True if the message on ``topic`` at ``stamp_ns`` is recorded (and remembered)."""
+        if not self.keep_after or not topic.startswith("/skin/"):
+            return True
+        last = self._last.get(topic)
+        if last is not None and stamp_ns - last < self.keep_after:
+            return False
+        self._last[topic] = stamp_ns
+        return True
+
+
+class BackgroundRecordingSink:
+    """A :class:`~phri_bringup.observer.node.RecordingSink` in a process of its own (module
+    docstring); the same arguments. ValueError (before the process starts) for a recording
+    directory that holds other files; :meth:`close` waits until the recording is complete and
+    raises RuntimeError if the process failed."""
+
+    def __init__(self, directory: str, skin_rate_hz: float = 10.0, tf_rate_hz: float = 50.0
+                 ) -> None:
+        clear_previous_recording(Path(directory))
+        Path(directory).parent.mkdir(parents=True, exist_ok=True)
+        self.directory = directory
+        self._skin = SkinDecimation(skin_rate_hz)
+        self._batch: list[Message] = []
+        ctx = multiprocessing.get_context("spawn")
+        self._queue: Any = ctx.Queue()
+        self._process = ctx.Process(target=record_from_queue, name="phri-recording",
+                                    args=(self._queue, directory, skin_rate_hz, tf_rate_hz,
+                                          os.getpid()), daemon=True)
+        self._process.start()
+        self.closed = False
+
+    def on_message(self, topic: str, type_name: str, raw: bytes, stamp_ns: int) -> None:
+        if self.closed or not self._skin.keep(topic, stamp_ns):
+            return
+        self._batch.append((topic, type_name, bytes(raw), stamp_ns))
+        if len(self._batch) >= BATCH:
+            self._flush()
+
+    def _flush(self) -> None:
+        if self._batch:
+            self._queue.put(self._batch)
+            self._batch = []
+
+    def close(self) -> None:
+        """Hand over what is left, wait until the recording is closed (idempotent)."""
+        if self.closed:
+            return
+        self.closed = True
+        self._flush()
+        self._queue.put(None)
+        self._queue.close()
+        self._queue.join_thread()
+        self._process.join()
+        if self._process.exitcode != 0:
+            raise RuntimeError(f"the recording process for {self.directory} failed (exit code "
+                               f"{self._process.exitcode}); see its error above")
+
+
+def record_from_queue(source: Any, directory: str, skin_rate_hz: float, tf_rate_hz: float,
+                      parent: int) -> None:
+    """The recording process: batches of messages from ``source`` into a RecordingSink until
+    ``None`` arrives or the process ``parent`` is gone."""
+    from phri_bringup.observer.node import RecordingSink
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    sink = RecordingSink(directory, skin_rate_hz=skin_rate_hz, tf_rate_hz=tf_rate_hz)
+    try:
+        while True:
+            try:
+                batch = source.get(timeout=PARENT_POLL_S)
+            except queue.Empty:
+                if os.getppid() != parent:
+                    return
+                continue
+            if batch is None:
+                return
+            for topic, type_name, raw, stamp_ns in batch:
+                sink.on_message(topic, type_name, raw, stamp_ns)
+    finally:
+        sink.close()

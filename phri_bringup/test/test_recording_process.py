@@ -1,0 +1,92 @@
+"""The recording written by a process of its own (phri_bringup.observer.recording_process) is
+the recording the in-process sink writes: the same messages, topics, times and order, the taxel
+arrays decimated by the same rule; a directory that holds other files is refused before the
+process starts."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+from rclpy.serialization import serialize_message
+
+from phri_bringup.observer.recording_process import BackgroundRecordingSink, SkinDecimation
+
+SKIN = "/skin/left_forearm/taxels"
+
+
+def _stream() -> list[tuple[str, str, bytes, int]]:
+    """0.3 s of what the simulator publishes at 100 Hz: /clock, /joint_states, /odom and one
+    patch's taxel arrays (the sink adds /tf, /tf_static and /robot_description)."""
+    from nav_msgs.msg import Odometry
+    from rosgraph_msgs.msg import Clock
+    from sensor_msgs.msg import JointState, PointCloud2
+
+    from phri_description.description import UR_JOINTS
+
+    out = []
+    for k in range(30):
+        t_ns = 1_000_000_000 + k * 10_000_000
+        clock = Clock()
+        clock.clock.sec, clock.clock.nanosec = divmod(t_ns, 1_000_000_000)
+        js = JointState()
+        js.name = [f"{side}_{j}" for side in ("left", "right") for j in UR_JOINTS]
+        js.position = [0.01 * k] * 12
+        cloud = PointCloud2()
+        cloud.header.stamp.sec, cloud.header.stamp.nanosec = divmod(t_ns, 1_000_000_000)
+        cloud.data = bytes([k]) * 64
+        out += [("/clock", "rosgraph_msgs/msg/Clock", serialize_message(clock), t_ns),
+                ("/joint_states", "sensor_msgs/msg/JointState", serialize_message(js), t_ns),
+                ("/odom", "nav_msgs/msg/Odometry", serialize_message(Odometry()), t_ns),
+                (SKIN, "sensor_msgs/msg/PointCloud2", serialize_message(cloud), t_ns)]
+    return out
+
+
+def _read(directory: Path) -> list[tuple[str, int, bytes]]:
+    from rosbags.highlevel import AnyReader
+
+    with AnyReader([directory]) as reader:
+        return [(conn.topic, stamp, bytes(raw)) for conn, stamp, raw in reader.messages()]
+
+
+def _record(sink: Any, stream: list[tuple[str, str, bytes, int]]) -> None:
+    for message in stream:
+        sink.on_message(*message)
+    sink.close()
+
+
+def test_the_process_writes_the_recording_the_sink_writes(tmp_path: Path) -> None:
+    from phri_bringup.observer.node import RecordingSink
+
+    stream = _stream()  # once: CDR padding bytes differ between two serialisations
+    _record(RecordingSink(str(tmp_path / "here"), skin_rate_hz=10.0), stream)
+    _record(BackgroundRecordingSink(str(tmp_path / "there"), skin_rate_hz=10.0), stream)
+    here, there = _read(tmp_path / "here"), _read(tmp_path / "there")
+    assert here == there
+    skins = [stamp for topic, stamp, _ in there if topic == SKIN]
+    assert 1 < len(skins) < 30 and skins[0] == 1_000_000_000  # decimated
+    assert {topic for topic, _, _ in there} >= {"/clock", "/joint_states", "/odom", "/tf",
+                                                "/tf_static", "/robot_description"}
+
+
+def test_a_directory_with_other_files_is_refused_before_the_process_starts(
+        tmp_path: Path) -> None:
+    directory = tmp_path / "recording"
+    directory.mkdir()
+    (directory / "notes.txt").write_text("mine", encoding="utf-8")
+    with pytest.raises(ValueError, match="holds other files"):
+        BackgroundRecordingSink(str(directory))
+    assert (directory / "notes.txt").read_text(encoding="utf-8") == "mine"
+
+
+def test_skin_decimation_keeps_frames_half_a_period_apart_per_patch() -> None:
+    """The recorder's rule as it was: a frame is kept when half the period has passed since the
+    last kept one (so ``skin_rate_hz`` 10 keeps a 100 Hz stream's frames 50 ms apart)."""
+    keep = SkinDecimation(10.0)
+    kept = [t for t in range(0, 200_000_000, 10_000_000) if keep.keep(SKIN, t)]
+    assert kept == [0, 50_000_000, 100_000_000, 150_000_000]
+    assert keep.keep("/skin/right_forearm/taxels", 10_000_000)  # each patch on its own
+    assert keep.keep("/odom", 10_000_000)  # only taxel arrays are decimated
+    every = SkinDecimation(0.0)
+    assert all(every.keep(SKIN, 0) for _ in range(3))
