@@ -6,8 +6,10 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from wholebody_controller.admittance import admittance_step, discretise, transition
+from wholebody_controller.admittance import admittance_step, dead_zone, discretise, transition
 from wholebody_controller.config import CONTACT_TRACKING, WALTZ, WHOLE_BODY, diag6
 
 PAPER_SETS = {
@@ -93,3 +95,31 @@ def test_explicit_euler_would_be_unstable_for_the_waltz_set() -> None:
 def test_rejects_bad_period() -> None:
     with pytest.raises(ValueError, match="period"):
         discretise(np.eye(6), np.eye(6), np.zeros((6, 6)), 0.0)
+
+
+def test_dead_zone_is_zero_inside_its_band_and_shrinks_by_it_outside() -> None:
+    """(D1) on analytic cases: a 3-4-0 N force (5 N) with a 2 N band keeps its direction at 3 N;
+    a force inside the band and a torque inside its own give exact zeros; bands of 0 change
+    nothing."""
+    out = dead_zone((3.0, 4.0, 0.0, 0.0, 0.0, 0.05), 2.0, 0.1)
+    assert out == pytest.approx((1.8, 2.4, 0.0, 0.0, 0.0, 0.0))
+    assert dead_zone((0.3, -0.4, 0.0, 0.0, 0.0, 0.0), 0.5, 0.0) == (0.0,) * 6
+    w = (1.0, -2.0, 0.5, 0.01, -0.02, 0.03)
+    assert dead_zone(w, 0.0, 0.0) == pytest.approx(w)
+
+
+@settings(max_examples=200)
+@given(st.lists(st.floats(-50.0, 50.0), min_size=6, max_size=6),
+       st.floats(0.0, 5.0), st.floats(0.0, 0.5))
+def test_dead_zone_is_a_continuous_shrink_by_at_most_its_band(
+        wrench: list[float], force_band: float, torque_band: float) -> None:
+    """(D1) on random wrenches: each part loses at most its band, never grows, never turns
+    (w'·w ≥ 0 per part), and is exactly zero when its size is within the band."""
+    out = np.array(dead_zone(tuple(wrench), force_band, torque_band))
+    w = np.array(wrench)
+    for part, band in ((slice(0, 3), force_band), (slice(3, 6), torque_band)):
+        size, shrunk = np.linalg.norm(w[part]), np.linalg.norm(out[part])
+        assert np.linalg.norm(w[part] - out[part]) <= band + 1e-9
+        assert shrunk <= size + 1e-12 and float(w[part] @ out[part]) >= -1e-12
+        if size <= band:
+            assert shrunk == 0.0

@@ -2,7 +2,8 @@
 
 An array-per-operation implementation of (10)–(23), Algorithm 1 and everything the controller
 adds around them — the contact safety (graded force response, regain budget of a desired force),
-the lead moment and carried reference, the desired region's onset window and hysteresis —
+the lead moment and carried reference, the desired region's onset window and hysteresis, the
+admittance input's dead zone —
 written independently of the production step: its SO(3) maps come from scipy
 (``wbc_rotations``), not from ``so3.py``, and every rule is written here again from the
 documentation (module docstrings of ``contact_safety``, ``following``, ``region``), so an error
@@ -53,16 +54,21 @@ def ref_build_qp(jacobian: Array, target: Array, weights: list[float], epsilon: 
 
 
 class RefAdmittance:
-    """s⁺ = Φ s + Γ w with full matrices."""
+    """s⁺ = Φ s + Γ w' with full matrices, w' the wrench through the dead zone (D1)."""
 
-    def __init__(self, config: LinkTaskConfig, dt: float) -> None:
+    def __init__(self, config: LinkTaskConfig, dt: float, bands: tuple[float, float]) -> None:
         g = config.admittance
         self.phi, self.gamma = discretise(diag6(g.inertia), diag6(g.damping),
                                           diag6(g.stiffness), dt)
         self.state = np.zeros(12)
+        self.bands = bands
 
     def step(self, wrench: Array) -> None:
-        self.state = self.phi @ self.state + self.gamma @ wrench
+        parts = []
+        for part, band in zip((wrench[:3], wrench[3:]), self.bands, strict=True):
+            size = float(np.linalg.norm(part))
+            parts.append(part * max(0.0, size - band) / size if size > 0.0 else part)
+        self.state = self.phi @ self.state + self.gamma @ np.concatenate(parts)
 
 
 class RefGuard:
@@ -173,7 +179,8 @@ class RefRegion:
 
 
 class RefTask:
-    """One link: contact safety, Algorithm 1, Ω_d, (10)–(20), lead moment and leash."""
+    """One link: contact safety, Algorithm 1, Ω_d, (10)–(20), lead moment and leash, the
+    admittance's dead zone."""
 
     def __init__(self, config: LinkTaskConfig, cc: ControllerConfig) -> None:
         self.config, self.safety = config, cc.safety
@@ -184,7 +191,7 @@ class RefTask:
         self.guard = RefGuard(config.force_limit, cc.safety)
         self.regain = RefRegain(cc.safety)
         self.region = RefRegion(config, cc)
-        self.adm = RefAdmittance(config, cc.dt)
+        self.adm = RefAdmittance(config, cc.dt, (cc.force_deadband, cc.torque_deadband))
         self.psi_prev = 0.0
         self.point = np.zeros(3)
         self.had_contact = False

@@ -16,6 +16,8 @@ at the sample instants.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import expm
@@ -70,3 +72,23 @@ def admittance_step(state: Array, phi_gamma: Array, wrench: tuple[float, ...]) -
         for j in range(6):
             acc += phi_gamma[r, 12 + j] * wrench[j]
         state[r] = acc
+
+
+@jitable
+def dead_zone(wrench: tuple[float, ...], force_band: float,
+              torque_band: float) -> tuple[float, float, float, float, float, float]:
+    """The admittance's input with a dead zone (D1): the force and the torque of ``wrench``
+    (6 floats, [N, N·m]) each shrunk towards zero by its band δ [N], [N·m]::
+
+        w_f' = w_f · max(0, 1 − δ_f / ‖w_f‖),     w_τ' = w_τ · max(0, 1 − δ_τ / ‖w_τ‖)      (D1)
+
+    Below its band a part moves nothing, so the skin's noise around a still hold leaves (13) at
+    rest; above it the part keeps its direction and loses δ of its size, so the map is
+    continuous (no relay) and ‖w − w'‖ ≤ δ per part. δ = 0 is the paper's (13).
+    """
+    fx, fy, fz, tx, ty, tz = wrench
+    f = math.sqrt(fx * fx + fy * fy + fz * fz)
+    kf = 0.0 if f <= force_band else 1.0 - force_band / f
+    t = math.sqrt(tx * tx + ty * ty + tz * tz)
+    kt = 0.0 if t <= torque_band else 1.0 - torque_band / t
+    return (kf * fx, kf * fy, kf * fz, kt * tx, kt * ty, kt * tz)

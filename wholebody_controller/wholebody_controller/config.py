@@ -220,6 +220,8 @@ class ControllerConfig:
         safety: the graded force response and contact gating (:mod:`contact_safety`).
         lead_moment: every task adds the lead moment about its hold point and carries its
             reference (:mod:`~wholebody_controller.following`); off = the paper's task.
+        force_deadband, torque_deadband: δ_f [N], δ_τ [N·m] of the admittance's input dead zone
+            (D1, :func:`~wholebody_controller.admittance.dead_zone`); 0 = the paper's (13).
         solver: QP backend, ``"daqp"`` (exact active set, default: faster and exact) or
             ``"osqp"`` (the paper's, warm-started with tight tolerances).
         kernel: how the tasks, Jacobians and QP of a step are computed, one of
@@ -273,6 +275,13 @@ class ControllerConfig:
     lead_moment: bool = setting(
         "lead_moment", False, "follow a turning lead: moment of the contact force about the "
         "contact region's middle (F1) and a leashed reference (F2); false = the paper's task")
+    force_deadband: float = setting(
+        "force_deadband", 0.0, "dead zone of the admittance's force input (D1): a wrench force "
+        "below it moves nothing, a larger one as if this much smaller (0 = the paper's (13))",
+        "N", 0.0, 5.0)
+    torque_deadband: float = setting(
+        "torque_deadband", 0.0, "dead zone of the admittance's torque input (D1), likewise "
+        "(0 = the paper's (13))", "N·m", 0.0, 0.5)
 
     def __post_init__(self) -> None:
         check_settings(self)

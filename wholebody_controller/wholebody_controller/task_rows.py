@@ -72,7 +72,9 @@ P_REGAIN_DISTANCE, P_REGAIN_TIME = 39, 40
 """Regain budget: travel [m] and time [s] a desired force may act without contact."""
 P_YIELD_MAX, P_FULL_EXCESS = 41, 42
 """Graded yield: yield speed at the full excess [m/s]; the excess (fraction of F) where σ = 1."""
-N_PARAM = 43
+P_DEADBAND_F, P_DEADBAND_T = 43, 44
+"""The admittance input's dead zone (D1): force δ_f [N], torque δ_τ [N·m]."""
+N_PARAM = 45
 
 # -- contact row: in_contact, centre, force, torque, region min, region max (link frame) ------
 C_IN, C_CENTER, C_FORCE, C_TORQUE, C_MIN, C_MAX = 0, 1, 4, 7, 10, 13
@@ -108,6 +110,7 @@ def link_params(link: LinkTaskConfig, config: ControllerConfig) -> Array:
                                      safety.reset_ratio, safety.yield_speed,
                                      safety.regain_distance, safety.regain_time,
                                      safety.yield_speed_max, safety.full_excess)
+    p[P_DEADBAND_F], p[P_DEADBAND_T] = config.force_deadband, config.torque_deadband
     return p
 
 

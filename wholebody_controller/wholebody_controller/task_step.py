@@ -7,7 +7,7 @@ The step, in order (:func:`step_task`):
 2. the contact centre ᶦp_η and its rate on the skin (fn. 2);
 3. the wrench (12) with the track force (10)–(11) against Ω_d (:mod:`region`), the lead moment
    (F1, :mod:`following`) and the gated desired force;
-4. the admittance (13);
+4. the admittance (13) on that wrench through its dead zone (D1, :mod:`admittance`);
 5. Algorithm 1: ψ (15) or the lock, activation (lock x_r), deactivation (line 10: reset);
 6. while active: the leash (F2), Ω_d locked or grown (line 14 and the onset window), and the
    commanded velocity of the contact centre (14), (16)–(20);
@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 
 from phri_common.jit import jitable
 from phri_common.planar import base_to_world
-from wholebody_controller.admittance import admittance_step
+from wholebody_controller.admittance import admittance_step, dead_zone
 from wholebody_controller.contact_safety import (
     approach_scale,
     limit_approach,
@@ -62,6 +62,8 @@ from wholebody_controller.task_rows import (
     O_YIELD,
     P_B,
     P_CARRY,
+    P_DEADBAND_F,
+    P_DEADBAND_T,
     P_DESIRED,
     P_DT,
     P_FADE,
@@ -390,7 +392,7 @@ def step_task(s: Array, p: Array, phi_gamma: Array, c: Array, rot: tuple, pos: t
     scale, desired_scale, has_normal, normal, sigma = contact_safety(s, p, c, pos)
     has_rate, rate = track_contact(s, p, c)
     w, mu = link_wrench(s, p, c, rot, yaw, desired_scale)
-    admittance_step(s, phi_gamma, w)
+    admittance_step(s, phi_gamma, dead_zone(w, p[P_DEADBAND_F], p[P_DEADBAND_T]))
     lock = p[P_LOCK]
     psi_raw = lock if not math.isnan(lock) else priority(
         (s[S_V], s[S_V + 1], s[S_V + 2], s[S_V + 3], s[S_V + 4], s[S_V + 5]), p[P_B])
