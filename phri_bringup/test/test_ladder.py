@@ -125,5 +125,5 @@ def test_phri_sim_runs_an_unscripted_lead(tmp_path: Path) -> None:
                            "--out", str(out)], capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr[-3000:]
     metrics = json.loads((out / "metrics.json").read_text())
-    assert metrics["partner"] == {"lead": "spin_left"} and metrics["plant"] == "ideal"
+    assert metrics["partner"] == {"lead": "spin_left"} and metrics["plant"] == "realistic"
     assert "turning_lag" in metrics["following"]
