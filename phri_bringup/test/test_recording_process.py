@@ -80,12 +80,16 @@ def test_a_directory_with_other_files_is_refused_before_the_process_starts(
     assert (directory / "notes.txt").read_text(encoding="utf-8") == "mine"
 
 
-def test_skin_decimation_keeps_frames_half_a_period_apart_per_patch() -> None:
-    """The recorder's rule as it was: a frame is kept when half the period has passed since the
-    last kept one (so ``skin_rate_hz`` 10 keeps a 100 Hz stream's frames 50 ms apart)."""
+def test_skin_decimation_keeps_the_asked_rate_per_patch() -> None:
+    """``skin_rate_hz`` frames per second of a 100 Hz stream: 10 keeps every tenth frame (100 ms
+    apart), 20 every fifth; a stream with a late frame keeps the next one on time. (The rule
+    before kept frames half a period apart: 10 Hz recorded 20 frames per second.)"""
     keep = SkinDecimation(10.0)
-    kept = [t for t in range(0, 200_000_000, 10_000_000) if keep.keep(SKIN, t)]
-    assert kept == [0, 50_000_000, 100_000_000, 150_000_000]
+    kept = [t for t in range(0, 300_000_000, 10_000_000) if keep.keep(SKIN, t)]
+    assert kept == [0, 100_000_000, 200_000_000]
+    twenty = SkinDecimation(20.0)
+    assert [t for t in range(0, 200_000_000, 10_000_000) if twenty.keep(SKIN, t)] == [
+        0, 50_000_000, 100_000_000, 150_000_000]
     assert keep.keep("/skin/right_forearm/taxels", 10_000_000)  # each patch on its own
     assert keep.keep("/odom", 10_000_000)  # only taxel arrays are decimated
     every = SkinDecimation(0.0)

@@ -179,9 +179,9 @@ def _sim_arguments(sub: Any) -> None:
                      help="recording directory (default OUT/recording)")
     sim.add_argument("--no-record", action="store_true",
                      help="no recording (and so no plots, no video)")
-    sim.add_argument("--skin-record-rate", type=float, default=10.0, metavar="HZ",
+    sim.add_argument("--skin-record-rate", type=float, default=20.0, metavar="HZ",
                      help="taxel arrays kept in the recording per second of sim time "
-                          "(0 = every frame; default 10)")
+                          "(0 = every frame; default 20)")
     sim.add_argument("--no-plots", action="store_true", help="skip the figure panels")
     sim.add_argument("--video", dest="video", action="store_true", default=True,
                      help="render the MP4 (default)")

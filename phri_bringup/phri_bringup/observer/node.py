@@ -109,7 +109,7 @@ class RecordingSink:
     first message ``/robot_description`` (the URDF) and ``/tf_static`` (fixed joints), once each,
     latched — what robot_state_publisher would have published."""
 
-    def __init__(self, directory: str, skin_rate_hz: float = 10.0, tf_rate_hz: float = 50.0
+    def __init__(self, directory: str, skin_rate_hz: float = 20.0, tf_rate_hz: float = 50.0
                  ) -> None:
         self.recording = McapRecording(directory)
         for spec in (*SIM_TOPICS, *RECORDED_EXTRA_TOPICS):

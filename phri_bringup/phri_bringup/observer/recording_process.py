@@ -35,14 +35,14 @@ Message = tuple[str, str, bytes, int]
 
 
 class SkinDecimation:
-    """Which taxel arrays a recording keeps, per patch topic: a frame once half a period
-    (1 / ``skin_rate_hz``, sim time) has passed since the last kept one; every frame with 0.
-    (The recorder's rule as it has been: ``skin_rate_hz`` 10 keeps a 100 Hz stream's frames
-    50 ms apart.)"""
+    """Which taxel arrays a recording keeps, per patch topic: ``skin_rate_hz`` frames per
+    second of sim time — a frame once 95 % of the period 1 / ``skin_rate_hz`` has passed since
+    the last kept one (the 5 % absorbs samples that do not fall on the period exactly; 10 Hz of
+    a 100 Hz stream is every tenth frame); every frame with 0."""
 
     def __init__(self, skin_rate_hz: float) -> None:
         period = 0 if skin_rate_hz <= 0 else round(1e9 / skin_rate_hz)
-        self.keep_after = period - period // 2
+        self.keep_after = period - period // 20
         self._last: dict[str, int] = {}
 
     def keep(self, topic: str, stamp_ns: int) -> bool:
@@ -62,7 +62,7 @@ class BackgroundRecordingSink:
     directory that holds other files; :meth:`close` waits until the recording is complete and
     raises RuntimeError if the process failed."""
 
-    def __init__(self, directory: str, skin_rate_hz: float = 10.0, tf_rate_hz: float = 50.0
+    def __init__(self, directory: str, skin_rate_hz: float = 20.0, tf_rate_hz: float = 50.0
                  ) -> None:
         clear_previous_recording(Path(directory))
         Path(directory).parent.mkdir(parents=True, exist_ok=True)
