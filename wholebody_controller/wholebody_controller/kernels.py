@@ -88,7 +88,7 @@ def _cache_stem(dispatcher: Any) -> Path | None:
     (the ``.nbc`` data files and our ``.sources`` stamp share that stem); None where numba lays
     its cache out otherwise (then numba's own rules apply)."""
     cache_file = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
-    index = getattr(cache_file, "_index_path", None)  # numba's private layout, 0.49 to 0.6x
+    index = getattr(cache_file, "_index_path", None)  # numba's private layout (0.68)
     if not isinstance(index, str | Path) or not str(index).endswith(".nbi"):
         return None
     return Path(str(index)[: -len(".nbi")])
