@@ -10,6 +10,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from phri_bringup.cli.main import main
@@ -48,14 +49,26 @@ def test_phri_sim_writes_recording_plots_video_and_metrics(tmp_path: Path) -> No
     video = out / "wholebody.mp4"
     if "video skipped" not in proc.stderr:
         assert video.read_bytes()[4:8] == b"ftyp" and video.stat().st_size > 1000
+        # Rendered beside the run: the frames of the recording rendered afterwards (in a
+        # process of its own: MuJoCo picks its GL backend once per process).
+        from phri_bringup.reports.video import video_frames
+
+        subprocess.run([sys.executable, "-c", "import sys; from phri_bringup.reports.video "
+                        "import render_video; render_video(sys.argv[1], sys.argv[2])",
+                        str(out / "recording"), str(tmp_path / "afterwards.mp4")],
+                       check=True, timeout=180, env={**os.environ, "MUJOCO_GL": "egl"})
+        live, after = (list(video_frames(p)[0]) for p in (video, tmp_path / "afterwards.mp4"))
+        assert len(live) == len(after) > 5
+        assert all(np.array_equal(a, b) for a, b in zip(live, after, strict=True))
 
 
 @pytest.mark.ros
 def test_ctrl_c_stops_with_zero_velocity_and_leaves_no_process(tmp_path: Path) -> None:
     out = tmp_path / "run"
     proc = subprocess.Popen(
-        [*PHRI, "sim", "--scenario", "waltz", "--out", str(out), "--no-video"],
+        [*PHRI, "sim", "--scenario", "waltz", "--out", str(out)],
         stderr=subprocess.PIPE, stdout=subprocess.DEVNULL, text=True, start_new_session=True,
+        env={**os.environ, "MUJOCO_GL": "egl"},
     )
     assert proc.stderr is not None
     deadline = time.monotonic() + 120
@@ -70,8 +83,10 @@ def test_ctrl_c_stops_with_zero_velocity_and_leaves_no_process(tmp_path: Path) -
     code = proc.wait(timeout=60)
     assert code == 130, rest[-3000:]
     assert "zero velocity published at exit: yes" in rest
-    # The recording and baseline processes are joined before the command exits; multiprocessing's
-    # resource tracker ends on its own when it sees the command gone, a moment later.
+    assert not (out / "waltz.mp4").exists()  # the video rendered beside the run is cancelled
+    # The recording, baseline and video processes are joined before the command exits;
+    # multiprocessing's resource tracker ends on its own when it sees the command gone, a
+    # moment later.
     deadline = time.monotonic() + 5.0
     while _session_processes(proc.pid) and time.monotonic() < deadline:
         time.sleep(0.1)

@@ -1,13 +1,15 @@
 """The recording written by a process of its own (phri_bringup.observer.recording_process) is
 the recording the in-process sink writes: the same messages, topics, times and order, the taxel
 arrays decimated by the same rule; a directory that holds other files is refused before the
-process starts."""
+process starts; the figure panels' series built while recording are those read back."""
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from rclpy.serialization import serialize_message
 
@@ -33,6 +35,8 @@ def _stream() -> list[tuple[str, str, bytes, int]]:
         js = JointState()
         js.name = [f"{side}_{j}" for side in ("left", "right") for j in UR_JOINTS]
         js.position = [0.01 * k] * 12
+        if k % 10:  # now and then a state without velocities (none to plot)
+            js.velocity = [0.001 * k] * 12
         cloud = PointCloud2()
         cloud.header.stamp.sec, cloud.header.stamp.nanosec = divmod(t_ns, 1_000_000_000)
         cloud.data = bytes([k]) * 64
@@ -94,3 +98,29 @@ def test_skin_decimation_keeps_the_asked_rate_per_patch() -> None:
     assert keep.keep("/odom", 10_000_000)  # only taxel arrays are decimated
     every = SkinDecimation(0.0)
     assert all(every.keep(SKIN, 0) for _ in range(3))
+
+
+def test_the_series_built_while_recording_are_those_read_from_the_recording(
+        tmp_path: Path) -> None:
+    """With the panels' series builder: what the recording process builds from the messages it
+    records equals :func:`~phri_bringup.reports.plots.read_run` of the recording it wrote."""
+    from phri_bringup.reports.plots import RunBuilder, RunData, Series, read_run
+
+    sink = BackgroundRecordingSink(str(tmp_path / "rec"), skin_rate_hz=10.0, builder=RunBuilder)
+    _record(sink, _stream())
+    built, read = sink.built, read_run(tmp_path / "rec")
+    assert isinstance(built, RunData)
+
+    def same(a: Any, b: Any) -> bool:
+        if isinstance(a, Series):
+            return bool(np.array_equal(a.t, b.t) and np.array_equal(a.v, b.v))
+        if isinstance(a, dict):
+            return a.keys() == b.keys() and all(same(a[k], b[k]) for k in a)
+        return bool(a == b)
+
+    for f in dataclasses.fields(RunData):
+        assert same(getattr(built, f.name), getattr(read, f.name)), f.name
+    assert len(built.odom.t) == 30 and len(built.joint_velocity.t) == 27
+    plain = BackgroundRecordingSink(str(tmp_path / "none"))
+    plain.close()
+    assert plain.built is None

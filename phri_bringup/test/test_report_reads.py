@@ -1,5 +1,6 @@
-"""The video's and the figure panels' readers decode phri's own layouts (contact and task
-states, joint states, odometry) straight from the recorded bytes: the same signals, value for
+"""The video's and the figure panels' readers decode the recorded messages (contact and task
+states, joint states, odometry, commands, the person's poses, the simulator's true contacts)
+straight from the recorded bytes: the same signals, value for
 value, as the messages deserialized by rclpy and decoded by the reference functions."""
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ WAIST = "left_forearm_link"
 
 def _messages(k: int, t_ns: int) -> list[tuple[str, str, Any]]:
     """One sample of every signal the readers take, at ``t_ns``, varying with ``k``."""
-    from geometry_msgs.msg import Pose, PoseArray
+    from geometry_msgs.msg import PointStamped, Pose, PoseArray, Twist, WrenchStamped
     from nav_msgs.msg import Odometry
     from sensor_msgs.msg import JointState
 
@@ -49,7 +50,18 @@ def _messages(k: int, t_ns: int) -> list[tuple[str, str, Any]]:
                            force=(0.0, 5.0 + k, 0.5), torque=(0.0, 0.0, 0.001 * k))
     task = TaskOutput(link=WAIST, phase=Phase.ACTIVE, psi=0.1 * k, psi_raw=0.2, in_contact=True,
                       values=tuple(0.001 * (i + k) for i in range(N_VALUES)))
+    wrench = WrenchStamped()
+    wrench.header.stamp.sec, wrench.header.stamp.nanosec = sec, nanosec
+    wrench.wrench.force.x, wrench.wrench.force.y, wrench.wrench.force.z = 0.1 * k, -1.0, 2.0
+    centre = PointStamped()
+    centre.header.stamp.sec, centre.header.stamp.nanosec = sec, nanosec
+    centre.point.x, centre.point.y, centre.point.z = 0.2, 0.001 * k, -0.03
+    cmd = Twist()
+    cmd.linear.x, cmd.linear.y, cmd.angular.z = 0.01 * k, -0.02, 0.003 * k
     return [("/joint_states", "sensor_msgs/msg/JointState", js),
+            (f"/sim/contacts/{WAIST}/wrench", "geometry_msgs/msg/WrenchStamped", wrench),
+            (f"/sim/contacts/{WAIST}/center", "geometry_msgs/msg/PointStamped", centre),
+            ("/cmd_vel", "geometry_msgs/msg/Twist", cmd),
             ("/odom", "nav_msgs/msg/Odometry", odom),
             ("/sim/person/poses", "geometry_msgs/msg/PoseArray", poses),
             (f"/contacts/{WAIST}", "sensor_msgs/msg/PointCloud2", contact_to_msg(contact)),
@@ -83,7 +95,7 @@ def test_video_tracks_from_the_bytes_are_the_deserialized_ones(
 def test_plot_series_from_the_bytes_are_the_deserialized_ones(
         recording: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     fast = plots.read_run(recording)
-    monkeypatch.setattr(plots, "_add_cdr_sample", lambda topic, raw, t, rows: False)
+    monkeypatch.setattr(plots, "_add_cdr_sample", lambda topic, raw, t, rows, data: False)
     reference = plots.read_run(recording)
 
     def same(a: Any, b: Any) -> bool:
@@ -96,4 +108,6 @@ def test_plot_series_from_the_bytes_are_the_deserialized_ones(
     for f in dataclasses.fields(plots.RunData):
         assert same(getattr(fast, f.name), getattr(reference, f.name)), f.name
     assert len(fast.force[WAIST].t) == 40 and len(fast.psi[WAIST].t) == 40
+    assert len(fast.true_force[WAIST].t) == len(fast.true_centre[WAIST].t) == 40
+    assert len(fast.cmd_vel.t) == len(fast.odom.t) == len(fast.torso.t) == 40
     assert fast.joint_names == [n for n in JOINT_NAMES if n not in BASE_JOINTS]

@@ -9,7 +9,12 @@ accepts bytes; these pure functions read and write them:
 * :func:`joint_state_from_cdr`: ``sensor_msgs/JointState`` → (names, positions);
 * :func:`joint_state_arrays_from_cdr`: the same with the velocities and efforts;
 * :func:`odometry_pose_from_cdr`: ``nav_msgs/Odometry`` → (x, y, qx, qy, qz, qw) of the pose;
-* :func:`twist_to_cdr`: (v_x, v_y, ω_z) → ``geometry_msgs/Twist``;
+* :func:`odometry_from_cdr`: the same with the twist;
+* :func:`stamped_xyz_from_cdr`: the point, force or vector of a ``PointStamped``,
+  ``WrenchStamped`` or ``Vector3Stamped``;
+* :func:`pose_array_from_cdr`: ``geometry_msgs/PoseArray`` → the poses;
+* :func:`twist_from_cdr` / :func:`twist_to_cdr`: ``geometry_msgs/Twist`` ↔ its six numbers
+  (the writer: (v_x, v_y, ω_z), the others 0);
 * :class:`Float64ArrayEncoder`: a fixed layout of ``std_msgs/Float64MultiArray`` with fresh data.
 
 Wire format (OMG XCDR1 as rmw_fastrtps writes it, the same as :mod:`phri_common.contact_cdr`):
@@ -161,6 +166,77 @@ def odometry_pose_from_cdr(data: bytes) -> tuple[float, ...] | None:
                        f"bytes {4 + offset}..{4 + offset + _POSE.size}")
     values: tuple[float, ...] = _POSE.unpack_from(data, 4 + offset)
     return values
+
+
+def _doubles_at(data: bytes, offset: int, count: int, field: str) -> tuple[float, ...]:
+    """``count`` float64 at (8-aligned) body ``offset``."""
+    if len(data) < 4 + offset + 8 * count:
+        raise CdrError(f"{field}: message ends at byte {len(data)}, the field needs bytes "
+                       f"{4 + offset}..{4 + offset + 8 * count}")
+    return struct.unpack_from(f"<{count}d", data, 4 + offset)
+
+
+def odometry_from_cdr(data: bytes) -> tuple[tuple[float, ...], tuple[float, ...]] | None:
+    """``((x, y, z, qx, qy, qz, qw), (vx, vy, vz, wx, wy, wz))`` of ``pose.pose`` and
+    ``twist.twist`` in a serialized ``nav_msgs/Odometry`` [m, unit quaternion, m/s, rad/s];
+    ``None`` for big-endian bytes.
+
+    Raises:
+        CdrError: truncated or inconsistent bytes (names the field).
+    """
+    pose = odometry_pose_from_cdr(data)
+    if pose is None:
+        return None
+    offset = _align(_skip_string(data, _align(_skip_header(data, "odometry"), 4),
+                                 "odometry.child_frame_id"), 8)
+    # pose (7), its covariance (36), then the twist
+    return pose, _doubles_at(data, offset + 8 * 43, 6, "odometry.twist.twist")
+
+
+def stamped_xyz_from_cdr(data: bytes, field: str) -> tuple[float, ...] | None:
+    """The three float64 right after the header of a serialized stamped message:
+    ``point`` of ``geometry_msgs/PointStamped``, ``wrench.force`` of ``WrenchStamped``,
+    ``vector`` of ``Vector3Stamped`` (``field`` names it in errors); ``None`` for big-endian
+    bytes.
+
+    Raises:
+        CdrError: truncated or inconsistent bytes (names the field).
+    """
+    if data[:2] != LITTLE_ENDIAN:
+        return None
+    return _doubles_at(data, _align(_skip_header(data, field), 8), 3, field)
+
+
+def pose_array_from_cdr(data: bytes) -> list[tuple[float, ...]] | None:
+    """``poses`` of a serialized ``geometry_msgs/PoseArray``, each ``(x, y, z, qx, qy, qz,
+    qw)`` [m, unit quaternion]; ``None`` for big-endian bytes.
+
+    Raises:
+        CdrError: truncated or inconsistent bytes (names the field).
+    """
+    if data[:2] != LITTLE_ENDIAN:
+        return None
+    offset = _align(_skip_header(data, "pose array"), 4)
+    count = _field_u32(data, offset, "poses (count)")
+    if count == 0:  # no padding to the (absent) first pose
+        return []
+    start = _align(offset + 4, 8)
+    if count > (len(data) - 4 - start) // _POSE.size:
+        raise CdrError(f"poses: {count} poses do not fit the {len(data)}-byte message "
+                       f"(allowed: at most {max(0, (len(data) - 4 - start) // _POSE.size)})")
+    return [_POSE.unpack_from(data, 4 + start + _POSE.size * i) for i in range(count)]
+
+
+def twist_from_cdr(data: bytes) -> tuple[float, ...] | None:
+    """``(vx, vy, vz, wx, wy, wz)`` of a serialized ``geometry_msgs/Twist`` [m/s, rad/s];
+    ``None`` for big-endian bytes.
+
+    Raises:
+        CdrError: truncated bytes.
+    """
+    if data[:2] != LITTLE_ENDIAN:
+        return None
+    return _doubles_at(data, 0, 6, "twist")
 
 
 def twist_to_cdr(vx: float, vy: float, wz: float) -> bytes:

@@ -8,7 +8,7 @@ import struct
 
 import numpy as np
 import pytest
-from geometry_msgs.msg import Twist
+from geometry_msgs.msg import PointStamped, Pose, PoseArray, Twist, WrenchStamped
 from nav_msgs.msg import Odometry
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
@@ -20,7 +20,11 @@ from phri_common.cdr import (
     Float64ArrayEncoder,
     joint_state_arrays_from_cdr,
     joint_state_from_cdr,
+    odometry_from_cdr,
     odometry_pose_from_cdr,
+    pose_array_from_cdr,
+    stamped_xyz_from_cdr,
+    twist_from_cdr,
     twist_to_cdr,
 )
 
@@ -177,3 +181,86 @@ def test_repeated_names_are_reused_only_while_their_bytes_repeat() -> None:
     for msg in (first, first, changed, first, shifted, changed):
         assert joint_state_from_cdr(serialize_message(msg)) == (tuple(msg.name),
                                                                 tuple(msg.position))
+
+
+def wrench_stamped(rng: np.random.Generator) -> WrenchStamped:
+    msg = WrenchStamped()
+    msg.header.frame_id = random_name(rng)
+    f, tq = msg.wrench.force, msg.wrench.torque
+    f.x, f.y, f.z, tq.x, tq.y, tq.z = rng.normal(size=6).tolist()
+    return msg
+
+
+def point_stamped(rng: np.random.Generator) -> PointStamped:
+    msg = PointStamped()
+    msg.header.frame_id = random_name(rng)
+    msg.point.x, msg.point.y, msg.point.z = rng.normal(size=3).tolist()
+    return msg
+
+
+def pose_array(rng: np.random.Generator) -> PoseArray:
+    msg = PoseArray()
+    msg.header.frame_id = random_name(rng)
+    for _ in range(int(rng.integers(0, 7))):
+        pose = Pose()
+        p, o = pose.position, pose.orientation
+        p.x, p.y, p.z, o.x, o.y, o.z, o.w = rng.normal(size=7).tolist()
+        msg.poses.append(pose)
+    return msg
+
+
+def test_odometry_twist_stamped_vectors_pose_arrays_and_twists_read_as_rclpy_wrote_them() -> None:
+    """The readers the reports use (every frame_id length: every padding case)."""
+    rng = np.random.default_rng(RNG_SEED)
+    for _ in range(200):
+        odom = odometry(rng)
+        odom.twist.twist.linear.y, odom.twist.twist.angular.z = rng.normal(size=2).tolist()
+        odom.twist.covariance = rng.normal(size=36).tolist()
+        p, o = odom.pose.pose.position, odom.pose.pose.orientation
+        lin, ang = odom.twist.twist.linear, odom.twist.twist.angular
+        assert odometry_from_cdr(serialize_message(odom)) == (
+            (p.x, p.y, p.z, o.x, o.y, o.z, o.w), (lin.x, lin.y, lin.z, ang.x, ang.y, ang.z))
+        wrench = wrench_stamped(rng)
+        f = wrench.wrench.force
+        assert stamped_xyz_from_cdr(serialize_message(wrench), "wrench") == (f.x, f.y, f.z)
+        point = point_stamped(rng)
+        q = point.point
+        assert stamped_xyz_from_cdr(serialize_message(point), "point") == (q.x, q.y, q.z)
+        poses = pose_array(rng)
+        assert pose_array_from_cdr(serialize_message(poses)) == [
+            (a.position.x, a.position.y, a.position.z, a.orientation.x, a.orientation.y,
+             a.orientation.z, a.orientation.w) for a in poses.poses]
+        twist = Twist()
+        twist.linear.x, twist.linear.y, twist.linear.z = rng.normal(size=3).tolist()
+        twist.angular.x, twist.angular.y, twist.angular.z = rng.normal(size=3).tolist()
+        assert twist_from_cdr(serialize_message(twist)) == (
+            twist.linear.x, twist.linear.y, twist.linear.z,
+            twist.angular.x, twist.angular.y, twist.angular.z)
+
+
+def test_the_report_readers_leave_big_endian_to_rclpy_and_name_a_truncated_field() -> None:
+    rng = np.random.default_rng(RNG_SEED)
+    cases = ((odometry_from_cdr, odometry(rng), "odometry"),
+             (lambda d: stamped_xyz_from_cdr(d, "wrench"), wrench_stamped(rng), "wrench"),
+             (pose_array_from_cdr, pose_array(rng), "pose"),
+             (twist_from_cdr, Twist(), "twist"))
+    for reader, msg, word in cases:
+        data = serialize_message(msg)
+        assert reader(big_endian(data)) is None
+        full = reader(data)
+        errors = 0
+        for end in range(2, len(data)):
+            try:
+                assert reader(data[:end]) == full
+            except CdrError as err:
+                errors += 1
+                assert word in str(err) or "header" in str(err) or "child_frame_id" in str(err)
+        assert errors > 0
+
+
+def test_a_pose_count_beyond_the_bytes_is_refused() -> None:
+    msg = PoseArray(poses=[Pose()])
+    data = bytearray(serialize_message(msg))
+    struct.pack_into("<I", data, 4 + 16, 1000)  # header: stamp 8, frame_id "" 5, pad to 16
+    with pytest.raises(CdrError, match="poses: 1000 poses do not fit"):
+        pose_array_from_cdr(bytes(data))

@@ -335,7 +335,10 @@ def cmd_sim(args: argparse.Namespace) -> int:
     stem = scenario_file(name) if args.lead is None else f"lead_{args.lead}"
     out = Path(args.out or f"runs/{stem}")
     record_dir = None if args.no_record else Path(args.record or out / "recording")
+    video_path = out / f"{scenario_file(name)}.mp4" if record_dir is not None and args.video \
+        else None
     sinks = _open_sinks(args, out, record_dir)
+    video = _start_video(video_path, sinks)
     baseline = _start_baseline(args, name, _enter_domain(args))
     pace = args.realtime if args.realtime is not None else (1.0 if args.foxglove else None)
     stop = StopFlag()
@@ -350,6 +353,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
     except Exception as err:
         _log(f"run failed: {type(err).__name__}: {err}")
         _cancel(baseline)
+        _cancel(video)
         return 2 if isinstance(err, ValueError) else 1
     finally:
         for sig, h in previous.items():
@@ -362,14 +366,15 @@ def cmd_sim(args: argparse.Namespace) -> int:
     if result.interrupted:
         _log("stopped before the end: recording closed, no metrics, plots or video")
         _cancel(baseline)
+        _cancel(video)
         return 130
     metrics = dict(result.metrics)
     _report_safety(metrics)
     metrics["zero_velocity_at_exit"] = result.zero_at_exit
     metrics["seed"] = args.seed
-    video = _start_video(args, name, record_dir, out)
     _following(args, name, metrics, runs, out, baseline)
-    metrics["bringup"] = {"run_wall_time": run_wall, **_plots(args, name, record_dir, out)}
+    metrics["bringup"] = {"run_wall_time": run_wall,
+                          **_plots(args, name, record_dir, out, _plot_series(sinks))}
     _finish_video(video)
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2, allow_nan=True) + "\n",
                                       encoding="utf-8")
@@ -378,52 +383,57 @@ def cmd_sim(args: argparse.Namespace) -> int:
     return 0
 
 
-def _plots(args: argparse.Namespace, name: str, record_dir: Path | None, out: Path
-           ) -> dict[str, Any]:
-    """The figure panels from the recording (unless ``--no-plots`` or ``--no-record``); returns
-    the panels' key numbers as ``{"plots": …}``."""
+def _plot_series(sinks: list[Any]) -> Any:
+    """The panels' series the recording process built while recording (None: read the
+    recording)."""
+    return next((s.built for s in sinks if getattr(s, "built", None) is not None), None)
+
+
+def _plots(args: argparse.Namespace, name: str, record_dir: Path | None, out: Path,
+           series: Any = None) -> dict[str, Any]:
+    """The figure panels of the recording (unless ``--no-plots`` or ``--no-record``), from
+    ``series`` built while it was recorded if given; returns the panels' key numbers as
+    ``{"plots": …}``."""
     summary: dict[str, Any] = {}
     if record_dir is not None and not args.no_plots:
         from phri_bringup.reports.plots import make_plots
 
-        files, numbers = make_plots(record_dir, out / "plots", scenario=name)
+        files, numbers = make_plots(record_dir if series is None else series, out / "plots",
+                                    scenario=name)
         summary["plots"] = numbers
         _log(f"plots: {len(files)} panels in {out / 'plots'}")
     return summary
 
 
-def _start_video(args: argparse.Namespace, name: str, record_dir: Path | None, out: Path
-                 ) -> Any:
-    """Start rendering the MP4 from the recording (unless ``--no-video`` or ``--no-record``) on
-    a background thread, in one process per CPU core (:func:`render_video`'s ``workers``);
-    returns what :func:`_finish_video` waits on (None: no video)."""
-    if record_dir is None or not args.video:
+def _start_video(path: Path | None, sinks: list[Any]) -> Any:
+    """The MP4 at ``path`` rendered beside the run from what the observer hands its sinks
+    (:class:`~phri_bringup.reports.video_live.LiveVideoSink`, appended to ``sinks``); None for
+    no video."""
+    if path is None:
         return None
-    from concurrent.futures import ThreadPoolExecutor
+    from phri_bringup.reports.video_live import LiveVideoSink
 
-    from phri_bringup.graph.nodes import scenario_file
-    from phri_bringup.reports.video import render_video
-
-    pool = ThreadPoolExecutor(1, thread_name_prefix="video")
-    t_video = time.perf_counter()
-    future = pool.submit(render_video, record_dir, out / f"{scenario_file(name)}.mp4",
-                         workers=os.cpu_count() or 1)
-    pool.shutdown(wait=False)
-    return future, t_video
+    video = LiveVideoSink(path)
+    sinks.append(video)
+    return video
 
 
 def _finish_video(video: Any) -> None:
-    """Wait for the MP4 started by :func:`_start_video` and report it."""
+    """Wait for the MP4 rendered beside the run (:mod:`phri_bringup.reports.video_live`) and
+    report it; a failure is reported, not raised (the run's outputs stand without a video)."""
     if video is None:
         return
     from phri_bringup.reports.video import VideoUnavailable
 
-    future, t_video = video
+    t_wait = time.perf_counter()
     try:
-        path = future.result()
-        _log(f"video: {path} ({time.perf_counter() - t_video:.0f} s to render)")
+        path = video.finish()
+        _log(f"video: {path} (rendered beside the run; {time.perf_counter() - t_wait:.0f} s "
+             "waited for it after the panels)")
     except VideoUnavailable as err:
         _log(f"video skipped: {err}")
+    except RuntimeError as err:
+        _log(f"video failed: {err}")
 
 
 def _run_options(args: argparse.Namespace) -> Any:
@@ -451,8 +461,11 @@ def _open_sinks(args: argparse.Namespace, out: Path, record_dir: Path | None) ->
     try:
         out.mkdir(parents=True, exist_ok=True)
         if record_dir is not None:
-            sinks.append(BackgroundRecordingSink(str(record_dir),
-                                                 skin_rate_hz=args.skin_record_rate))
+            from phri_bringup.reports.plots import RunBuilder
+
+            sinks.append(BackgroundRecordingSink(
+                str(record_dir), skin_rate_hz=args.skin_record_rate,
+                builder=None if args.no_plots else RunBuilder))
     except (OSError, ValueError) as err:
         for sink in sinks:
             sink.close()
@@ -474,9 +487,10 @@ def _start_baseline(args: argparse.Namespace, name: str, domain: int) -> Any:
     return MotionlessBaseline(recipe, _run_options(args), domain)
 
 
-def _cancel(baseline: Any) -> None:
-    if baseline is not None:
-        baseline.cancel()
+def _cancel(job: Any) -> None:
+    """Stop a job beside the run (the baseline, the video), if there is one."""
+    if job is not None:
+        job.cancel()
 
 
 def _following(args: argparse.Namespace, name: str, metrics: dict[str, Any], runs: list[Any],

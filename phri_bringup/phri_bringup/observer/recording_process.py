@@ -17,10 +17,12 @@ is gone.
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
 import queue
 import signal
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -62,8 +64,8 @@ class BackgroundRecordingSink:
     directory that holds other files; :meth:`close` waits until the recording is complete and
     raises RuntimeError if the process failed."""
 
-    def __init__(self, directory: str, skin_rate_hz: float = 20.0, tf_rate_hz: float = 50.0
-                 ) -> None:
+    def __init__(self, directory: str, skin_rate_hz: float = 20.0, tf_rate_hz: float = 50.0,
+                 builder: Callable[[], Any] | None = None) -> None:
         clear_previous_recording(Path(directory))
         Path(directory).parent.mkdir(parents=True, exist_ok=True)
         self.directory = directory
@@ -71,11 +73,23 @@ class BackgroundRecordingSink:
         self._batch: list[Message] = []
         ctx = multiprocessing.get_context("spawn")
         self._queue: Any = ctx.Queue()
+        self._series: Any = None
+        child: Any = None
+        if builder is not None:
+            self._series, child = ctx.Pipe(duplex=False)
         self._process = ctx.Process(target=record_from_queue, name="phri-recording",
                                     args=(self._queue, directory, skin_rate_hz, tf_rate_hz,
-                                          os.getpid()), daemon=True)
+                                          os.getpid(), child, builder), daemon=True)
         self._process.start()
+        if child is not None:
+            child.close()
         self.closed = False
+        self.built: Any = None
+        """With a ``builder`` (a picklable factory of an object with ``add(topic, type_name,
+        raw, t [s])`` and ``result()``, e.g. :class:`phri_bringup.reports.plots.RunBuilder`):
+        after :meth:`close`, the ``result()`` of every recorded message added to a fresh one in
+        the recording process (the panels' series, built while recording: the panels need not
+        read the recording back); None if building failed."""
 
     def on_message(self, topic: str, type_name: str, raw: bytes, stamp_ns: int) -> None:
         if self.closed or not self._skin.keep(topic, stamp_ns):
@@ -98,6 +112,9 @@ class BackgroundRecordingSink:
         self._queue.put(None)
         self._queue.close()
         self._queue.join_thread()
+        if self._series is not None:
+            with contextlib.suppress(EOFError):  # the process failed: reported below
+                self.built = self._series.recv()
         self._process.join()
         if self._process.exitcode != 0:
             raise RuntimeError(f"the recording process for {self.directory} failed (exit code "
@@ -105,14 +122,19 @@ class BackgroundRecordingSink:
 
 
 def record_from_queue(source: Any, directory: str, skin_rate_hz: float, tf_rate_hz: float,
-                      parent: int) -> None:
+                      parent: int, series: Any = None,
+                      builder: Callable[[], Any] | None = None) -> None:
     """The recording process: batches of messages from ``source`` into a RecordingSink until
-    ``None`` arrives or the process ``parent`` is gone."""
+    ``None`` arrives or the process ``parent`` is gone; with a ``series`` connection, the same
+    messages also go to a ``builder()``, whose result is sent through it at the end (None if
+    building failed: the recording does not depend on it)."""
     from phri_bringup.observer.node import RecordingSink
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    sink = RecordingSink(directory, skin_rate_hz=skin_rate_hz, tf_rate_hz=tf_rate_hz)
+    sink: Any = RecordingSink(directory, skin_rate_hz=skin_rate_hz, tf_rate_hz=tf_rate_hz)
+    if series is not None and builder is not None:
+        sink = _SeriesTap(sink, series, builder())
     try:
         while True:
             try:
@@ -127,3 +149,26 @@ def record_from_queue(source: Any, directory: str, skin_rate_hz: float, tf_rate_
                 sink.on_message(topic, type_name, raw, stamp_ns)
     finally:
         sink.close()
+
+
+class _SeriesTap:
+    """A RecordingSink that also adds every message to ``builder`` and sends its result
+    through ``conn`` when it closes."""
+
+    def __init__(self, sink: Any, conn: Any, builder: Any) -> None:
+        self.sink, self.conn, self.builder = sink, conn, builder
+
+    def on_message(self, topic: str, type_name: str, raw: bytes, stamp_ns: int) -> None:
+        self.sink.on_message(topic, type_name, raw, stamp_ns)
+        if self.builder is not None:
+            try:
+                self.builder.add(topic, type_name, raw, stamp_ns * 1e-9)
+            except Exception:  # the panels read the recording instead
+                self.builder = None
+
+    def close(self) -> None:
+        try:
+            self.sink.close()
+        finally:
+            self.conn.send(None if self.builder is None else self.builder.result())
+            self.conn.close()

@@ -78,48 +78,69 @@ class RunData:
     cmd_vel: Series = field(default_factory=lambda: Series.of([], 3))
     odom: Series = field(default_factory=lambda: Series.of([], 6))
     torso: Series = field(default_factory=lambda: Series.of([], 2))
-    topics: dict[str, str] = field(default_factory=dict)
 
 
 Rows = dict[str, list[tuple[float, list[float]]]]
 """Samples per series key while reading: (time [s], values)."""
 
 
-def read_run(path: str | Path) -> RunData:
-    """Read a recording (run directory, recording directory or ``.mcap``) with rosbags."""
-    from rclpy.serialization import deserialize_message
-    from rosbags.highlevel import AnyReader
-
-    rows: Rows = defaultdict(list)
-    data = RunData()
-    with AnyReader([find_recording(path)]) as reader:
-        data.topics = {c.topic: c.msgtype for c in reader.connections}
-        wanted = [c for c in reader.connections if c.topic.startswith(
-            ("/contacts/left", "/contacts/right", "/sim/", STATE_PREFIX, "/joint_states",
-             "/cmd_vel", "/odom"))]
-        for conn, stamp, raw in reader.messages(connections=wanted):
-            if not _add_cdr_sample(conn.topic, raw, stamp * 1e-9, rows):
-                msg = deserialize_message(raw, ros_type(conn.msgtype))
-                _add_sample(conn.topic, msg, stamp * 1e-9, rows, data)
-    for link in SKIN_LINKS:
-        data.force[link] = Series.of(rows["force/" + link], 3)
-        data.torque[link] = Series.of(rows["torque/" + link], 3)
-        data.centre[link] = Series.of(rows["centre/" + link], 3)
-        data.in_contact[link] = Series.of(rows["in_contact/" + link], 1)
-        data.true_force[link] = Series.of(rows["true_force/" + link], 3)
-        data.true_centre[link] = Series.of(rows["true_centre/" + link], 3)
-        data.psi[link] = Series.of(rows["psi/" + link], 1)
-        data.track_force[link] = Series.of(rows["track/" + link], 3)
-        data.region[link] = Series.of(rows["region/" + link], 6)
-    data.joint_velocity = Series.of(rows["qd"], 12)
-    data.cmd_vel = Series.of(rows["cmd_vel"], 3)
-    data.odom = Series.of(rows["odom"], 6)
-    data.torso = Series.of(rows["torso"], 2)
-    return data
-
-
 STATE_PREFIX = f"/{CONTROLLER}/state/"
 """Topic prefix of the controller's per-link task state."""
+PLOTTED_PREFIXES = ("/contacts/left", "/contacts/right", "/sim/", STATE_PREFIX,
+                    "/joint_states", "/cmd_vel", "/odom")
+"""Topics the panels read (by prefix)."""
+
+
+class RunBuilder:
+    """The panels' series from a run's messages, one at a time in the order recorded
+    (:meth:`add`), then :meth:`result`: what :func:`read_run` reads from a recording, and what
+    the recording process builds while it records (``phri sim`` then draws without reading
+    the recording back)."""
+
+    def __init__(self) -> None:
+        self.rows: Rows = defaultdict(list)
+        self.data = RunData()
+
+    def add(self, topic: str, type_name: str, raw: bytes, t: float) -> None:
+        """A message of ``topic`` (``pkg/msg/Type``) as CDR bytes at time ``t`` [s]."""
+        from rclpy.serialization import deserialize_message
+
+        if not topic.startswith(PLOTTED_PREFIXES):
+            return
+        if not _add_cdr_sample(topic, raw, t, self.rows, self.data):
+            msg = deserialize_message(raw, ros_type(type_name))
+            _add_sample(topic, msg, t, self.rows, self.data)
+
+    def result(self) -> RunData:
+        """The series of every message added."""
+        rows, data = self.rows, self.data
+        for link in SKIN_LINKS:
+            data.force[link] = Series.of(rows["force/" + link], 3)
+            data.torque[link] = Series.of(rows["torque/" + link], 3)
+            data.centre[link] = Series.of(rows["centre/" + link], 3)
+            data.in_contact[link] = Series.of(rows["in_contact/" + link], 1)
+            data.true_force[link] = Series.of(rows["true_force/" + link], 3)
+            data.true_centre[link] = Series.of(rows["true_centre/" + link], 3)
+            data.psi[link] = Series.of(rows["psi/" + link], 1)
+            data.track_force[link] = Series.of(rows["track/" + link], 3)
+            data.region[link] = Series.of(rows["region/" + link], 6)
+        data.joint_velocity = Series.of(rows["qd"], 12)
+        data.cmd_vel = Series.of(rows["cmd_vel"], 3)
+        data.odom = Series.of(rows["odom"], 6)
+        data.torso = Series.of(rows["torso"], 2)
+        return data
+
+
+def read_run(path: str | Path) -> RunData:
+    """Read a recording (run directory, recording directory or ``.mcap``) with rosbags."""
+    from rosbags.highlevel import AnyReader
+
+    builder = RunBuilder()
+    with AnyReader([find_recording(path)]) as reader:
+        wanted = [c for c in reader.connections if c.topic.startswith(PLOTTED_PREFIXES)]
+        for conn, stamp, raw in reader.messages(connections=wanted):
+            builder.add(conn.topic, conn.msgtype, raw, stamp * 1e-9)
+    return builder.result()
 
 
 def _add_contact(link: str, c: Any, t: float, rows: Rows) -> None:
@@ -135,10 +156,57 @@ def _add_state(link: str, state: dict[str, float], t: float, rows: Rows) -> None
     rows["track/" + link].append((t, [state[f"track_force_{a}"] for a in "xyz"]))
 
 
-def _add_cdr_sample(topic: str, raw: bytes, t: float, rows: Rows) -> bool:
-    """File a contact or task state read straight from its serialized bytes (phri's own
-    layouts, no rclpy message objects: their ``PointField`` s cost far more than the record);
-    False for anything else, which :func:`_add_sample` decodes."""
+def _add_cdr_sample(topic: str, raw: bytes, t: float, rows: Rows, data: RunData) -> bool:
+    """File a message read straight from its serialized bytes (no rclpy message objects: a
+    recording holds a quarter of a million; contact and task states carry 17 or 40
+    ``PointField`` s); False for big-endian bytes or another topic, which :func:`_add_sample`
+    decodes."""
+    if topic.startswith(("/contacts/", STATE_PREFIX)):
+        return _add_cdr_state(topic, raw, t, rows)
+    return _add_cdr_sim(topic, raw, t, rows, data)
+
+
+def _add_cdr_sim(topic: str, raw: bytes, t: float, rows: Rows, data: RunData) -> bool:
+    """:func:`_add_cdr_sample` for the simulator's and the robot's standard messages (the
+    same series as :func:`_add_sample`)."""
+    import phri_common.cdr as cdr
+
+    if topic.endswith(("/wrench", "/center")) and topic.startswith("/sim/contacts/"):
+        xyz = cdr.stamped_xyz_from_cdr(raw, topic)
+        key = "true_force/" if topic.endswith("/wrench") else "true_centre/"
+        if xyz is not None:
+            rows[key + topic.split("/")[3]].append((t, list(xyz)))
+        return xyz is not None
+    if topic == "/sim/person/poses":
+        poses = cdr.pose_array_from_cdr(raw)
+        if poses:
+            rows["torso"].append((t, list(poses[0][:2])))
+        return poses is not None
+    if topic == "/joint_states":  # the arm joints (the base is in /odom)
+        js = cdr.joint_state_arrays_from_cdr(raw)
+        if js is not None:
+            arm = [i for i, name in enumerate(js[0]) if name not in BASE_JOINTS]
+            data.joint_names = [js[0][i] for i in arm]
+            if len(js[2]) == len(js[0]):  # a state without velocities has none to plot
+                rows["qd"].append((t, [js[2][i] for i in arm]))
+        return js is not None
+    if topic == "/cmd_vel":
+        tw = cdr.twist_from_cdr(raw)
+        if tw is not None:
+            rows["cmd_vel"].append((t, [tw[0], tw[1], tw[5]]))
+        return tw is not None
+    if topic == "/odom":
+        odom = cdr.odometry_from_cdr(raw)
+        if odom is not None:
+            (x, y, _z, qx, qy, qz, qw), tw = odom
+            rows["odom"].append((t, [x, y, yaw_from_quaternion(qw, qx, qy, qz),
+                                     tw[0], tw[1], tw[5]]))
+        return odom is not None
+    return False
+
+
+def _add_cdr_state(topic: str, raw: bytes, t: float, rows: Rows) -> bool:
+    """:func:`_add_cdr_sample` for phri's contact and task states."""
     from phri_common.contact_cdr import contact_from_cdr
     from wholebody_controller.messages import task_state_from_cdr
 
@@ -176,7 +244,8 @@ def _add_sample(topic: str, msg: Any, t: float, rows: Rows, data: RunData) -> No
     elif topic == "/joint_states":  # the arm joints (the base is in /odom)
         arm = [i for i, name in enumerate(msg.name) if name not in BASE_JOINTS]
         data.joint_names = [msg.name[i] for i in arm]
-        rows["qd"].append((t, [msg.velocity[i] for i in arm]))
+        if len(msg.velocity) == len(msg.name):
+            rows["qd"].append((t, [msg.velocity[i] for i in arm]))
     elif topic == "/cmd_vel":
         rows["cmd_vel"].append((t, [msg.linear.x, msg.linear.y, msg.angular.z]))
     elif topic == "/odom":
@@ -238,13 +307,14 @@ def _save(fig: Any, path: Path) -> Path:
     return path
 
 
-def make_plots(recording: str | Path, out_dir: str | Path, scenario: str | None = None
-               ) -> tuple[list[Path], dict[str, Any]]:
-    """Draw every panel of a recording into ``out_dir``; return the files and key numbers.
-    ``scenario`` ('waltz' adds the waltz panels; centring, sliding, whole_body the paper's
-    page) defaults to the one the recording shows (a
-    recording whose left forearm is pushed for most of the run by the torso is a waltz)."""
-    data = read_run(recording)
+def make_plots(recording: str | Path | RunData, out_dir: str | Path,
+               scenario: str | None = None) -> tuple[list[Path], dict[str, Any]]:
+    """Draw every panel of a recording (or of its series, already read or built while it was
+    recorded) into ``out_dir``; return the files and key numbers. ``scenario`` ('waltz' adds
+    the waltz panels; centring, sliding, whole_body the paper's page) defaults to the one the
+    recording shows (a recording whose left forearm is pushed for most of the run by the torso
+    is a waltz)."""
+    data = recording if isinstance(recording, RunData) else read_run(recording)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     files = [panel(data, out) for panel in (_force_panel, _torque_panel, _centre_panel,

@@ -23,10 +23,10 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -53,6 +53,11 @@ CHANGE_THRESHOLD = 12
 """A pixel "changes" when a colour channel differs by more than this (of 255) — above the
 H.264 coding noise (:func:`changing_pixel_share`)."""
 STATE_TOPIC = f"/{CONTROLLER}/state/{WAIST_LINK}"
+MACRO_BLOCK = 8
+"""Frame sides must be multiples of this for the encoder (360 = 45 × 8; with imageio's 16 the
+ffmpeg process rescaled every 640 × 360 frame to 640 × 368)."""
+FLOOR_GRID_SPACING = 0.5
+"""Tessellation of the rendered floor plane [m] (MuJoCo's third plane size; visual only)."""
 
 
 class VideoUnavailable(RuntimeError):
@@ -88,7 +93,17 @@ class Track:
         return self.v[i] if i >= 0 else None
 
 
-Tracks = dict[str, Track]
+class TrackLike(Protocol):
+    """What a frame reads of a signal: its sample times [s] (``t[0]``, ``t[-1]``) and the latest
+    sample at a time (:class:`Track`; a growing one in :mod:`phri_bringup.reports.video_live`)."""
+
+    @property
+    def t(self) -> FloatArray | Sequence[float]: ...
+
+    def at(self, t: float) -> Any: ...
+
+
+Tracks = Mapping[str, TrackLike]
 """Recorded signals by topic: ``/joint_states`` (names, positions), ``/odom`` (x, y, yaw),
 ``/sim/person/poses`` (list of ((x, y, z), (w, x, y, z))), ``/contacts/<link>``
 (:class:`~phri_common.contact.ContactState`), :data:`STATE_TOPIC` (ψ)."""
@@ -117,7 +132,7 @@ def _decode_cdr(topic: str, raw: bytes) -> Any:
     """:func:`_decode` straight from the serialized bytes of phri's own layouts (no rclpy
     message objects: a contact or task state's PointCloud2 carries 17 or 40 ``PointField`` s);
     None for anything else, which :func:`read_tracks` deserializes and decodes."""
-    from phri_common.cdr import joint_state_from_cdr, odometry_pose_from_cdr
+    from phri_common.cdr import joint_state_from_cdr, odometry_pose_from_cdr, pose_array_from_cdr
     from phri_common.contact_cdr import contact_from_cdr
 
     if topic == "/joint_states":
@@ -129,6 +144,9 @@ def _decode_cdr(topic: str, raw: bytes) -> Any:
             return None
         x, y, _z, qx, qy, qz, qw = pose
         return (x, y, yaw_from_quaternion(qw, qx, qy, qz))
+    if topic == "/sim/person/poses":
+        poses = pose_array_from_cdr(raw)
+        return None if poses is None else [(p[:3], (p[6], p[3], p[4], p[5])) for p in poses]
     if topic == STATE_TOPIC:
         from wholebody_controller.messages import task_state_from_cdr
 
@@ -139,21 +157,33 @@ def _decode_cdr(topic: str, raw: bytes) -> Any:
     return None
 
 
+VIDEO_TOPICS = frozenset({"/joint_states", "/odom", "/sim/person/poses", STATE_TOPIC,
+                          *(f"/contacts/{link}" for link in SKIN_LINKS)})
+"""The recorded topics a video shows (:data:`Tracks`)."""
+
+
+def decode_record(topic: str, type_name: str, raw: bytes) -> Any:
+    """The value a :class:`Track` of ``topic`` holds, from a message's CDR bytes (``type_name``
+    ``pkg/msg/Type``): phri's own layouts straight from the bytes, anything else through its
+    rclpy message class."""
+    from rclpy.serialization import deserialize_message
+
+    value = _decode_cdr(topic, raw)
+    if value is None:
+        value = _decode(topic, deserialize_message(raw, ros_type(type_name)))
+    return value
+
+
 def read_tracks(path: Path) -> Tracks:
     """The signals a video needs, from the recording at ``path`` (:data:`Tracks`)."""
-    from rclpy.serialization import deserialize_message
     from rosbags.highlevel import AnyReader
 
     rows: dict[str, list[tuple[float, object]]] = {}
-    topics = {"/joint_states", "/odom", "/sim/person/poses", STATE_TOPIC,
-              *(f"/contacts/{link}" for link in SKIN_LINKS)}
     with AnyReader([path]) as reader:
-        conns = [c for c in reader.connections if c.topic in topics]
+        conns = [c for c in reader.connections if c.topic in VIDEO_TOPICS]
         for conn, stamp, raw in reader.messages(connections=conns):
-            value = _decode_cdr(conn.topic, raw)
-            if value is None:
-                value = _decode(conn.topic, deserialize_message(raw, ros_type(conn.msgtype)))
-            rows.setdefault(conn.topic, []).append((stamp * 1e-9, value))
+            rows.setdefault(conn.topic, []).append(
+                (stamp * 1e-9, decode_record(conn.topic, conn.msgtype, raw)))
     return {k: Track(np.array([r[0] for r in v]), [r[1] for r in v]) for k, v in rows.items()}
 
 
@@ -179,12 +209,6 @@ def render_video(
     tracks = read_tracks(find_recording(recording))
     if "/joint_states" not in tracks:
         raise ValueError(f"{recording}: the recording has no /joint_states to render")
-    try:
-        import imageio_ffmpeg
-
-        imageio_ffmpeg.get_ffmpeg_exe()
-    except Exception as err:
-        raise VideoUnavailable(f"no ffmpeg for MP4 encoding: {err}") from err
     out = Path(output)
     out.parent.mkdir(parents=True, exist_ok=True)
     n = frame_count(tracks, opts)
@@ -202,6 +226,11 @@ def frame_count(tracks: Tracks, opts: VideoOptions) -> int:
     return max(1, int((float(js[-1]) - float(js[0])) * opts.fps / opts.speed))
 
 
+def frame_time(t0: float, i: int, opts: VideoOptions) -> float:
+    """Recording time [s] of frame ``i`` of a video whose first frame is at ``t0`` [s]."""
+    return t0 + i * opts.speed / opts.fps
+
+
 def chunk_ranges(n_frames: int, workers: int) -> list[tuple[int, int]]:
     """``n_frames`` split into at most ``workers`` consecutive (first, stop) ranges of nearly
     equal length, none shorter than a second of video at 25 fps."""
@@ -213,14 +242,8 @@ def chunk_ranges(n_frames: int, workers: int) -> list[tuple[int, int]]:
 def _render_chunk(tracks: Tracks, opts: VideoOptions, out: Path, first: int, stop: int,
                   progress: Callable[[int, int], None] | None = None) -> Path:
     """Frames ``first`` … ``stop - 1`` of the video of ``tracks`` encoded into ``out``."""
-    import imageio_ffmpeg
-
     frames = FrameRenderer(tracks, opts)
-    writer = imageio_ffmpeg.write_frames(str(out), (opts.width, opts.height), fps=opts.fps,
-                                         codec="libx264", macro_block_size=16,
-                                         ffmpeg_log_level="error",
-                                         output_params=["-preset", "veryfast"])
-    writer.send(None)
+    writer = open_writer(out, opts)
     try:
         for i, frame in enumerate(frames.frames(first, stop)):
             writer.send(frame)
@@ -230,6 +253,27 @@ def _render_chunk(tracks: Tracks, opts: VideoOptions, out: Path, first: int, sto
         writer.close()
         frames.close()
     return out
+
+
+def open_writer(out: Path, opts: VideoOptions) -> Any:
+    """An H.264 encoder (the ffmpeg process of ``imageio-ffmpeg``) writing ``out``, primed:
+    ``send`` it RGB frames of ``opts``' size, then ``close`` it.
+
+    Raises:
+        VideoUnavailable: no ffmpeg here.
+    """
+    try:
+        import imageio_ffmpeg
+
+        imageio_ffmpeg.get_ffmpeg_exe()
+    except Exception as err:
+        raise VideoUnavailable(f"no ffmpeg for MP4 encoding: {err}") from err
+    writer = imageio_ffmpeg.write_frames(str(out), (opts.width, opts.height), fps=opts.fps,
+                                         codec="libx264", macro_block_size=MACRO_BLOCK,
+                                         ffmpeg_log_level="error",
+                                         output_params=["-preset", "veryfast"])
+    writer.send(None)
+    return writer
 
 
 def _render_parallel(tracks: Tracks, opts: VideoOptions, out: Path,
@@ -280,6 +324,9 @@ class FrameRenderer:
         # Capsules and spheres of 12 × 8 facets instead of 28 × 16 (MuJoCo's default): the
         # same picture at video size, a third less rendering in software GL.
         model.vis.quality.numslices, model.vis.quality.numstacks = 12, 8
+        # The floor plane is tessellated at its grid spacing (5 cm: ~10⁴ quads in view); its
+        # checker is a texture, so a coarse grid draws the same floor in a fraction of the time.
+        model.geom_size[model.geom("floor").id, 2] = FLOOR_GRID_SPACING
         model.vis.headlight.ambient[:] = 0.45
         model.vis.headlight.diffuse[:] = 0.55
         self.model, self.data = model, mujoco.MjData(model)
@@ -306,18 +353,17 @@ class FrameRenderer:
         self.facing_offset: float | None = None
         self.turns = _Unwrapper(), _Unwrapper()
         self.t0 = float(tracks["/joint_states"].t[0])
-        self.n_frames = frame_count(tracks, opts)
 
     def close(self) -> None:
         """Release the GL context."""
         self.renderer.close()
 
     def __iter__(self) -> Iterator[NDArray[np.uint8]]:
-        return self.frames(0, self.n_frames)
+        return self.frames(0, frame_count(self.tracks, self.opts))
 
     def time_of(self, i: int) -> float:
         """Recording time [s] of frame ``i``."""
-        return self.t0 + i * self.opts.speed / self.opts.fps
+        return frame_time(self.t0, i, self.opts)
 
     def frames(self, first: int, stop: int) -> Iterator[NDArray[np.uint8]]:
         """Frames ``first`` … ``stop - 1``; the frames before ``first`` are stepped through
