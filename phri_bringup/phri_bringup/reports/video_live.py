@@ -15,8 +15,8 @@ the frames left while the command draws the panels, and :meth:`~LiveVideoSink.fi
 the file.
 
 The process runs at a lower CPU priority (:data:`NICE`): the simulation sets the pace, the video
-takes the time it leaves. It ignores Ctrl-C and SIGTERM (the command cancels it) and ends when
-its parent is gone.
+takes the time it leaves. It ignores Ctrl-C (the command stops cleanly and cancels it), ends on
+SIGTERM (multiprocessing's clean-up at an unexpected exit) and when its parent is gone.
 """
 
 from __future__ import annotations
@@ -239,7 +239,7 @@ class LiveVideoSink:
         self.closed = True
         self._queue.cancel_join_thread()
         if self._process.is_alive():
-            self._process.kill()  # it ignores SIGTERM; its encoder ends with its input
+            self._process.kill()  # its encoder ends with its input
         self._process.join()
         self.output.unlink(missing_ok=True)
 
@@ -250,8 +250,7 @@ def render_from_queue(source: Any, output: str, opts: VideoOptions, parent: int,
     encoder until ``None`` arrives (then the frames left) or the process ``parent`` is gone;
     sends ``(status, text)`` through ``result``: ``ok``, ``unavailable`` or ``error``. After a
     failure it still drains ``source``, so the run never waits on a full pipe."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the command decides (it cancels the video)
     os.nice(NICE)
     os.environ.setdefault("MUJOCO_GL", "egl")
     live = LiveVideo(opts)
