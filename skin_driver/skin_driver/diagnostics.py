@@ -64,9 +64,6 @@ class BoardSnapshot:
     calibration: CalibrationStatus
     wrong_size_taxels: int = 0
     """Taxel count of the last frame refused for not matching the layout (0: none)."""
-    superseded: int = 0
-    """Frames calibrated but not handed on: a newer frame of the board came in the same read
-    (a reader held off the CPU catches up with the newest instead of queueing)."""
 
 
 def _kv(key: str, value: object) -> KeyValue:
@@ -137,7 +134,6 @@ def board_status(b: BoardSnapshot, url: str) -> DiagnosticStatus:
         _kv("rate_hz", b.rate_hz),
         _kv("frames", b.frames),
         _kv("published", b.published),
-        _kv("superseded", b.superseded),
         _kv("dropped", b.dropped),
         _kv("sequence_restarts", b.restarts),
         _kv("size_mismatches", b.size_mismatches),

@@ -216,8 +216,6 @@ class _Channel:
     publisher: Publisher
     frames: int = 0
     published: int = 0
-    superseded: int = 0
-    """Frames not handed on: a newer one of the board came in the same read (``_on_frame``)."""
     size_mismatches: int = 0
     wrong_size: int = 0
     """Taxel count of the last frame refused for its size (0: none yet)."""
@@ -399,17 +397,10 @@ class SkinDriverNode(Node):
                 if self._unframed_since is None:
                     self._unframed_since = mono
                 self._unframed_bytes += len(chunk)
-            newest = {frame.board_id: i for i, frame in enumerate(frames)}
-            for i, frame in enumerate(frames):
-                self._on_frame(frame, arrival_ns, mono, newest[frame.board_id] == i)
+            for frame in frames:
+                self._on_frame(frame, arrival_ns, mono)
 
-    def _on_frame(self, frame: Frame, arrival_ns: int, mono: float, newest: bool = True
-                  ) -> None:
-        """One intact frame. A frame with a newer one of the same board in the same read
-        (``newest`` False: the reader was held off the CPU and the frames queued up) is stale
-        when it is handled: it goes through the calibration (the moving average needs every
-        sample) but is neither handed on nor published, and is counted (``superseded``), so a
-        late reader catches up with the newest force instead of queueing the old ones."""
+    def _on_frame(self, frame: Frame, arrival_ns: int, mono: float) -> None:
         channel = self._channels.get(frame.board_id)
         if channel is None:
             self._unknown_board_frames += 1
@@ -427,9 +418,6 @@ class SkinDriverNode(Node):
             self.get_logger().info(f"board {frame.board_id} ({channel.layout.patch}) is sending")
         forces = channel.calibrator.process(frame.counts, mono)
         if forces is None:
-            return
-        if not newest:
-            channel.superseded += 1
             return
         if self._listeners:
             forces.flags.writeable = False  # a fresh array per frame, now shared read-only
@@ -573,7 +561,6 @@ class SkinDriverNode(Node):
                         rate_hz=(c.frames - c.frames_at_last_diag) / elapsed,
                         frames=c.frames,
                         published=c.published,
-                        superseded=c.superseded,
                         dropped=dropped,
                         new_drops=dropped - c.dropped_at_last_diag,
                         restarts=c.sequence.restarts,

@@ -524,41 +524,6 @@ def test_a_frame_of_another_size_is_refused_counted_reported_and_the_next_one_us
 
 
 @pytest.mark.ros
-def test_frames_queued_in_one_read_hand_on_only_the_newest_of_each_board(  # type: ignore[no-untyped-def]
-    ros_context, setup, tmp_path
-) -> None:
-    """A reader held off the CPU finds several frames of a board in one read: the stale ones
-    are calibrated (the moving average sees every sample) and counted, only the newest is
-    handed on — the force a reader fed the frames one by one ends with."""
-    _, layout_file, _ = setup
-    counts = [np.full(36, 1000 + 300 * k) for k in range(4)]
-    one_by_one = _quiet_node(ros_context, tmp_path, layout_file)
-    singly = _frames_of(one_by_one)
-    late = _quiet_node(ros_context, tmp_path, layout_file)
-    caught_up = _frames_of(late)
-    try:
-        for k, c in enumerate(counts):
-            one_by_one._on_data(encode_frame(4, k, c), 2_000_000 * k)
-        late._on_data(encode_frame(4, 0, counts[0]), 0)
-        late._on_data(b"".join(encode_frame(4, k, counts[k]) for k in (1, 2, 3)), 6_000_000)
-        _, (board,) = late.snapshot()
-    finally:
-        one_by_one.destroy_node()
-        late.destroy_node()
-    assert len(singly) == 4 and len(caught_up) == 2
-    np.testing.assert_array_equal(caught_up[-1].forces, singly[-1].forces)
-    assert not np.array_equal(singly[-1].forces, singly[1].forces)  # the average moved on
-    assert (board.frames, board.superseded, board.dropped) == (4, 2, 0)
-    assert _value(board_status_of(board), "superseded") == "2"
-
-
-def board_status_of(board):  # type: ignore[no-untyped-def]
-    from skin_driver.diagnostics import board_status
-
-    return board_status(board, "test")
-
-
-@pytest.mark.ros
 def test_reload_layouts_announces_a_new_geometry(ros_context, setup, tmp_path) -> None:  # type: ignore[no-untyped-def]
     from std_srvs.srv import Trigger
 
