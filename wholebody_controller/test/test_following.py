@@ -12,7 +12,14 @@ from wbc_rotations import exp_rotvec
 
 from phri_common.records import ContactState
 from wholebody_controller.config import ControllerConfig, LinkTaskConfig
-from wholebody_controller.following import FOLD_ANGLE, LEASH_ANGLE, lead_moment, leash_reference
+from wholebody_controller.following import (
+    FOLD_ANGLE,
+    LEASH_ANGLE,
+    LEASH_DISTANCE,
+    lead_moment,
+    leash_position,
+    leash_reference,
+)
 from wholebody_controller.tasks import ContactTask
 
 LINK = "left_forearm_link"
@@ -138,3 +145,44 @@ def test_uneven_back_turns_the_link_towards_the_pressing_end_only_with_lead() ->
             assert out.wrench[5] == pytest.approx(0.2, abs=1e-9)
     assert rates[False] == pytest.approx(0.0, abs=1e-9)
     assert 0.95 < rates[True] < 1.0 + 5.0 * LEASH_ANGLE + 0.01
+
+
+def test_position_leash_rebases_onto_the_leash_end_along_the_lead() -> None:
+    """(F3) by hand: a desired point 0.1 m ahead along x (0.04 of it in the deflection) comes
+    back to ε_p ahead, on the same line, with the deflection at 0; within ε_p nothing moves."""
+    ref, deflection = (0.06, 0.0, 0.0), (0.04, 0.0, 0.0)
+    moved = leash_position(ref, deflection, (0.0, 0.0, 0.2), (0.0, 0.0, 0.2))
+    assert moved == pytest.approx((LEASH_DISTANCE, 0.0, 0.0), abs=1e-12)
+    assert leash_position((0.0, 0.0, 0.0), (0.5 * LEASH_DISTANCE, 0.0, 0.0), (0.0, 0.0, 0.0),
+                          (0.0, 0.0, 0.0)) is None
+    diagonal = leash_position((0.0, 0.0, 0.0), (0.1, 0.1, 0.0), (0.01, 0.0, 0.0),
+                              (0.0, 0.0, 0.0))
+    assert diagonal is not None
+    lead = np.array(diagonal) + np.array([0.01, 0.0, 0.0])  # the new desired point
+    assert np.linalg.norm(lead) == pytest.approx(LEASH_DISTANCE, abs=1e-12)
+    assert lead[0] / lead[1] == pytest.approx(0.11 / 0.1, abs=1e-9)
+
+
+def test_a_link_held_still_under_a_push_does_not_wind_up_its_desired_point() -> None:
+    """A 50 N push for 1 s on a link that cannot follow (a robot at its velocity limit), then
+    the contact is lost: the paper's task has wound x̃_p up to ≈ 0.5 m (50 N / D = 0.5 m/s for
+    1 s) and, its priority locked, asks for K_p · 0.5 m = 2.5 m/s towards it; carried on the
+    leash (F3) it asks for at most K_p ε_p = 0.15 m/s, so a lost contact pulls the link on by at
+    most ε_p."""
+    rot, pos = _mat9(np.eye(3)), [0.0, 0.0, 0.0]
+    after_loss = {}
+    for lead in (False, True):
+        task = _task(lead)
+        for k in range(500):  # 1 s at the default 500 Hz
+            push = ContactState(LINK, k, True, np.zeros(3), np.array([0.0, 50.0, 0.0]),
+                                np.zeros(3), np.array([-0.01, -0.01, 0.0]),
+                                np.array([0.01, 0.01, 0.0]), 4)
+            task.step(push, rot, pos, 0.0)
+        speeds = []
+        for k in range(500, 650):
+            out = task.step(ContactState(LINK, k, False), rot, pos, 0.0)
+            if k >= 510:  # the deflection velocity has decayed (Λ/D = 1 ms)
+                speeds.append(float(np.linalg.norm(out.target[0:3])))
+        after_loss[lead] = max(speeds)
+    assert after_loss[False] > 2.0
+    assert after_loss[True] <= 5.0 * LEASH_DISTANCE + 1e-6

@@ -27,7 +27,7 @@ from wholebody_controller.config import ControllerConfig, LinkTaskConfig, diag6
 from wholebody_controller.contact_safety import Safety, SafetyConfig
 from wholebody_controller.contact_task import Phase
 from wholebody_controller.controller import KinematicsModel
-from wholebody_controller.following import FOLD_ANGLE, LEASH_ANGLE
+from wholebody_controller.following import FOLD_ANGLE, LEASH_ANGLE, LEASH_DISTANCE
 from wholebody_controller.qp import QPProblem, QPSolver, make_solver
 
 Array = NDArray[np.float64]
@@ -187,6 +187,7 @@ class RefTask:
         self.k_eta, self.b, self.k_p, self.psi_thr = cc.k_eta, cc.b, cc.k_p, cc.psi_thr
         self.dt, self.lead = cc.dt, cc.lead_moment
         self.carry = cc.lead_moment and not any(config.admittance.stiffness[3:6])
+        self.carry_pos = cc.lead_moment and not any(config.admittance.stiffness[0:3])
         assert config.force_limit is not None
         self.guard = RefGuard(config.force_limit, cc.safety)
         self.regain = RefRegain(cc.safety)
@@ -239,9 +240,29 @@ class RefTask:
                                             @ np.asarray(self.config.desired_force, float))
         return wrench, mu
 
-    def leash(self, rot: Array) -> None:
-        """Carry the reference: re-base when R_d leads R_i by more than the leash, fold the
-        deflection into it when it passes the fold angle."""
+    def leash(self, rot: Array, pos: Array) -> None:
+        """Carry the reference: the rotation (F2) where K_ω = 0, then the position (F3) where
+        K_p-stiffness = 0."""
+        if self.carry:
+            self.leash_rotation(rot)
+        if self.carry_pos:
+            self.leash_position(rot, pos)
+
+    def leash_position(self, rot: Array, pos: Array) -> None:
+        """Re-base p_r when the desired contact point leads the link's by more than ε_p."""
+        assert self.ref_rot is not None and self.ref_pos is not None
+        rot_d = exp_rotvec(self.adm.state[3:6]) @ self.ref_rot
+        desired = self.ref_pos + self.adm.state[0:3] + rot_d @ self.point
+        e = desired - (pos + rot @ self.point)
+        if np.linalg.norm(e) <= LEASH_DISTANCE:
+            return
+        self.ref_pos = pos + rot @ self.point - rot_d @ self.point \
+            + LEASH_DISTANCE * e / np.linalg.norm(e)
+        self.adm.state[0:3] = 0.0
+
+    def leash_rotation(self, rot: Array) -> None:
+        """Re-base when R_d leads R_i by more than the leash, fold the deflection into it when
+        it passes the fold angle."""
         assert self.ref_rot is not None
         x_w, v_w = self.adm.state[3:6].copy(), self.adm.state[9:12].copy()
         desired = exp_rotvec(x_w) @ self.ref_rot
@@ -323,8 +344,8 @@ class RefTask:
             self.region.reset()
         self.psi_prev = psi_raw
         active = psi_raw >= thr and self.ref_rot is not None
-        if active and self.carry:
-            self.leash(rot)
+        if active:
+            self.leash(rot, pos)
         if active and in_contact:
             self.region.update(contact.region_min, contact.region_max)
         if not active:

@@ -74,7 +74,9 @@ P_YIELD_MAX, P_FULL_EXCESS = 41, 42
 """Graded yield: yield speed at the full excess [m/s]; the excess (fraction of F) where σ = 1."""
 P_DEADBAND_F, P_DEADBAND_T = 43, 44
 """The admittance input's dead zone (D1): force δ_f [N], torque δ_τ [N·m]."""
-N_PARAM = 45
+P_CARRY_POS = 45
+"""The position reference carried on the leash (F3: lead moment on, K_p-stiffness 0)."""
+N_PARAM = 46
 
 # -- contact row: in_contact, centre, force, torque, region min, region max (link frame) ------
 C_IN, C_CENTER, C_FORCE, C_TORQUE, C_MIN, C_MAX = 0, 1, 4, 7, 10, 13
@@ -111,6 +113,7 @@ def link_params(link: LinkTaskConfig, config: ControllerConfig) -> Array:
                                      safety.regain_distance, safety.regain_time,
                                      safety.yield_speed_max, safety.full_excess)
     p[P_DEADBAND_F], p[P_DEADBAND_T] = config.force_deadband, config.torque_deadband
+    p[P_CARRY_POS] = config.lead_moment and not any(link.admittance.stiffness[0:3])
     return p
 
 

@@ -45,7 +45,7 @@ from wholebody_controller.contact_task import (
     sliding_terms,
     task_velocity,
 )
-from wholebody_controller.following import lead_moment, leash_reference
+from wholebody_controller.following import lead_moment, leash_position, leash_reference
 from wholebody_controller.linalg3 import rotate
 from wholebody_controller.region import gated_track_force, grow_box, track_force
 from wholebody_controller.task_rows import (
@@ -62,6 +62,7 @@ from wholebody_controller.task_rows import (
     O_YIELD,
     P_B,
     P_CARRY,
+    P_CARRY_POS,
     P_DEADBAND_F,
     P_DEADBAND_T,
     P_DESIRED,
@@ -305,18 +306,29 @@ def advance(s: Array, p: Array, psi_raw: float, rot: tuple, pos: tuple) -> tuple
 
 
 @jitable
-def carry_reference(s: Array, rot: tuple) -> None:
+def carry_reference(s: Array, p: Array, rot: tuple, pos: tuple) -> None:
     """(F2): re-base x_r's rotation when the desired orientation leads the link's ``rot`` by
-    more than the leash, or fold the deflection into it (:mod:`following`)."""
+    more than the leash, or fold the deflection into it; (F3): re-base x_r's position when the
+    desired contact point leads the link's by more than its leash (:mod:`following`)."""
     if s[S_REF_SET] == 0.0:
         return
-    carried = leash_reference(_m9(s, S_REF_ROT), _v3(s, S_X + 3), _v3(s, S_V + 3), rot)
-    if carried is not None:
-        new_rot, rate = carried
-        for k in range(9):
-            s[S_REF_ROT + k] = new_rot[k]
-        s[S_X + 3 : S_X + 6] = 0.0
-        s[S_V + 3], s[S_V + 4], s[S_V + 5] = rate
+    if p[P_CARRY] != 0.0:
+        carried = leash_reference(_m9(s, S_REF_ROT), _v3(s, S_X + 3), _v3(s, S_V + 3), rot)
+        if carried is not None:
+            new_rot, rate = carried
+            for k in range(9):
+                s[S_REF_ROT + k] = new_rot[k]
+            s[S_X + 3 : S_X + 6] = 0.0
+            s[S_V + 3], s[S_V + 4], s[S_V + 5] = rate
+    if p[P_CARRY_POS] != 0.0:
+        rot_d, _ = desired_orientation(_m9(s, S_REF_ROT), _v3(s, S_X + 3), _v3(s, S_V + 3))
+        point = _v3(s, S_POINT)
+        lx, ly, lz = rotate(rot, point)
+        moved = leash_position(_v3(s, S_REF_POS), _v3(s, S_X), rotate(rot_d, point),
+                               (pos[0] + lx, pos[1] + ly, pos[2] + lz))
+        if moved is not None:
+            s[S_REF_POS], s[S_REF_POS + 1], s[S_REF_POS + 2] = moved
+            s[S_X : S_X + 3] = 0.0
 
 
 @jitable
@@ -400,8 +412,8 @@ def step_task(s: Array, p: Array, phi_gamma: Array, c: Array, rot: tuple, pos: t
     if deactivated:
         s[S_X : S_X + 12] = 0.0  # line 10
         reset_region(s)
-    if active and p[P_CARRY] != 0.0:
-        carry_reference(s, rot)
+    if active:
+        carry_reference(s, p, rot, pos)
     if active and in_contact:
         region_update(s, p, c)
     vel = (0.0,) * 12
