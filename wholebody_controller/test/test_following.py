@@ -1,5 +1,6 @@
 """Following a turning lead (:mod:`wholebody_controller.following`): the lead moment (F1) and the
-leashed reference (F2), alone and inside the contact task (the link held still)."""
+leashed reference (F2) and position (F3), alone and inside the contact task (the link held
+still)."""
 
 from __future__ import annotations
 

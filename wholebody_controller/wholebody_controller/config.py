@@ -274,7 +274,7 @@ class ControllerConfig:
     safety: SafetyConfig = field(default_factory=SafetyConfig)
     lead_moment: bool = setting(
         "lead_moment", False, "follow a turning lead: moment of the contact force about the "
-        "contact region's middle (F1) and a leashed reference (F2); false = the paper's task")
+        "contact region's middle (F1) and a leashed reference (F2, F3); false = the paper's task")
     force_deadband: float = setting(
         "force_deadband", 0.0, "dead zone of the admittance's force input (D1): a wrench force "
         "below it moves nothing, a larger one as if this much smaller (0 = the paper's (13))",
