@@ -138,8 +138,7 @@ def test_a_cancelled_live_video_leaves_no_file_and_no_process(tmp_path: Path) ->
         msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(k * 10_000_000, 1_000_000_000)
         sink.on_message("/joint_states", "sensor_msgs/msg/JointState", serialize_message(msg),
                         k * 10_000_000)
-    sink._queue.put(sink._batch)  # what on_message has not handed over yet, without the end
-    sink._batch = []
+    sink._batches._flush()  # what on_message has not handed over yet, without the end
     deadline = time.monotonic() + 120.0  # a bound against a hang, not a speed requirement
     while not out.exists() and sink._process.is_alive() and time.monotonic() < deadline:
         time.sleep(0.05)

@@ -5,6 +5,7 @@ truncated or garbage bytes give a CdrError naming the field, never another excep
 from __future__ import annotations
 
 import struct
+from typing import Any
 
 import numpy as np
 import pytest
@@ -141,17 +142,22 @@ def test_every_truncation_is_a_clear_error_or_the_same_answer() -> None:
     rng = np.random.default_rng(RNG_SEED)
     for reader, msg in ((joint_state_from_cdr, joint_state(rng)),
                         (odometry_pose_from_cdr, odometry(rng))):
-        data = serialize_message(msg)
-        full = reader(data)
-        errors = 0
-        for end in range(2, len(data)):
-            try:
-                assert reader(data[:end]) == full
-            except CdrError as err:
-                errors += 1
-                assert any(word in str(err) for word in ("header", "name", "position",
-                                                          "child_frame_id", "pose"))
-        assert errors > 0
+        assert_truncations_answer_or_name(reader, serialize_message(msg),
+                                          ("header", "name", "position", "child_frame_id", "pose"))
+
+
+def assert_truncations_answer_or_name(reader: Any, data: bytes, words: tuple[str, ...]) -> None:
+    """Every prefix of ``data`` gives ``reader``'s full answer or a CdrError naming one of
+    ``words``; at least one prefix is an error."""
+    full = reader(data)
+    errors = 0
+    for end in range(2, len(data)):
+        try:
+            assert reader(data[:end]) == full
+        except CdrError as err:
+            errors += 1
+            assert any(word in str(err) for word in words), str(err)
+    assert errors > 0
 
 
 def test_garbage_counts_are_refused_naming_the_field_and_value() -> None:
@@ -247,15 +253,7 @@ def test_the_report_readers_leave_big_endian_to_rclpy_and_name_a_truncated_field
     for reader, msg, word in cases:
         data = serialize_message(msg)
         assert reader(big_endian(data)) is None
-        full = reader(data)
-        errors = 0
-        for end in range(2, len(data)):
-            try:
-                assert reader(data[:end]) == full
-            except CdrError as err:
-                errors += 1
-                assert word in str(err) or "header" in str(err) or "child_frame_id" in str(err)
-        assert errors > 0
+        assert_truncations_answer_or_name(reader, data, (word, "header", "child_frame_id"))
 
 
 def test_a_pose_count_beyond_the_bytes_is_refused() -> None:

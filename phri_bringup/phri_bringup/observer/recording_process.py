@@ -22,7 +22,7 @@ import multiprocessing
 import os
 import queue
 import signal
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -58,6 +58,45 @@ class SkinDecimation:
         return True
 
 
+class MessageBatches:
+    """Messages handed to a spawned process through a queue of ``ctx``, :data:`BATCH` at a time
+    (one pickle, one pipe write); :meth:`end` hands over the rest and the end mark (None).
+    :func:`received_batches` is the process's side."""
+
+    def __init__(self, ctx: Any) -> None:
+        self.queue: Any = ctx.Queue()
+        self._batch: list[Message] = []
+
+    def add(self, messages: Iterable[Message]) -> None:
+        self._batch.extend(messages)
+        if len(self._batch) >= BATCH:
+            self._flush()
+
+    def end(self) -> None:
+        self._flush()
+        self.queue.put(None)
+
+    def _flush(self) -> None:
+        if self._batch:
+            self.queue.put(self._batch)
+            self._batch = []
+
+
+def received_batches(source: Any, parent: int) -> Iterator[list[Message]]:
+    """The batches a :class:`MessageBatches` queue ``source`` delivers, until its end mark or
+    until the process ``parent`` is gone (checked every :data:`PARENT_POLL_S` of silence)."""
+    while True:
+        try:
+            batch = source.get(timeout=PARENT_POLL_S)
+        except queue.Empty:
+            if os.getppid() != parent:
+                return
+            continue
+        if batch is None:
+            return
+        yield batch
+
+
 class BackgroundRecordingSink:
     """A :class:`~phri_bringup.observer.node.RecordingSink` in a process of its own (module
     docstring); the same arguments. ValueError (before the process starts) for a recording
@@ -70,15 +109,14 @@ class BackgroundRecordingSink:
         Path(directory).parent.mkdir(parents=True, exist_ok=True)
         self.directory = directory
         self._skin = SkinDecimation(skin_rate_hz)
-        self._batch: list[Message] = []
         ctx = multiprocessing.get_context("spawn")
-        self._queue: Any = ctx.Queue()
+        self._batches = MessageBatches(ctx)
         self._series: Any = None
         child: Any = None
         if builder is not None:
             self._series, child = ctx.Pipe(duplex=False)
         self._process = ctx.Process(target=record_from_queue, name="phri-recording",
-                                    args=(self._queue, directory, skin_rate_hz, tf_rate_hz,
+                                    args=(self._batches.queue, directory, skin_rate_hz, tf_rate_hz,
                                           os.getpid(), child, builder), daemon=True)
         self._process.start()
         if child is not None:
@@ -94,24 +132,16 @@ class BackgroundRecordingSink:
     def on_message(self, topic: str, type_name: str, raw: bytes, stamp_ns: int) -> None:
         if self.closed or not self._skin.keep(topic, stamp_ns):
             return
-        self._batch.append((topic, type_name, bytes(raw), stamp_ns))
-        if len(self._batch) >= BATCH:
-            self._flush()
-
-    def _flush(self) -> None:
-        if self._batch:
-            self._queue.put(self._batch)
-            self._batch = []
+        self._batches.add(((topic, type_name, bytes(raw), stamp_ns),))
 
     def close(self) -> None:
         """Hand over what is left, wait until the recording is closed (idempotent)."""
         if self.closed:
             return
         self.closed = True
-        self._flush()
-        self._queue.put(None)
-        self._queue.close()
-        self._queue.join_thread()
+        self._batches.end()
+        self._batches.queue.close()
+        self._batches.queue.join_thread()
         if self._series is not None:
             with contextlib.suppress(EOFError):  # the process failed: reported below
                 self.built = self._series.recv()
@@ -136,15 +166,7 @@ def record_from_queue(source: Any, directory: str, skin_rate_hz: float, tf_rate_
     if series is not None and builder is not None:
         sink = _SeriesTap(sink, series, builder())
     try:
-        while True:
-            try:
-                batch = source.get(timeout=PARENT_POLL_S)
-            except queue.Empty:
-                if os.getppid() != parent:
-                    return
-                continue
-            if batch is None:
-                return
+        for batch in received_batches(source, parent):
             for topic, type_name, raw, stamp_ns in batch:
                 sink.on_message(topic, type_name, raw, stamp_ns)
     finally:

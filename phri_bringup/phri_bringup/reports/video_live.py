@@ -26,7 +26,6 @@ import functools
 import math
 import multiprocessing
 import os
-import queue
 import signal
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -35,6 +34,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from phri_bringup.observer.recording_process import Message, MessageBatches, received_batches
 from phri_bringup.reports.video import (
     VIDEO_TOPICS,
     FrameRenderer,
@@ -49,14 +49,8 @@ from phri_bringup.reports.video import (
 LAG_S = 0.5
 """A frame is rendered once a message [s] this much later than the frame has arrived: the
 latest samples at the frame's time are in by then (a lock-step period is 10 ms)."""
-BATCH = 128
-"""Messages handed to the video process at once (one pickle, one pipe write)."""
 NICE = 10
 """Niceness added to the video process: the simulation is the command's critical path."""
-PARENT_POLL_S = 1.0
-"""How often [s] an idle video process checks that its parent still runs."""
-Message = tuple[str, str, bytes, int]
-"""(topic, type name, CDR bytes, time [ns]), as a sink's ``on_message`` gets them."""
 
 
 class GrowingTrack:
@@ -183,13 +177,12 @@ class LiveVideoSink:
     def __init__(self, output: str | Path, options: VideoOptions | None = None) -> None:
         self.output = Path(output)
         self.output.parent.mkdir(parents=True, exist_ok=True)
-        self._batch: list[Message] = []
         self._needed = FrameDecimation(options or VideoOptions())
         ctx = multiprocessing.get_context("spawn")
-        self._queue: Any = ctx.Queue()
+        self._batches = MessageBatches(ctx)
         self._result, child = ctx.Pipe(duplex=False)
         self._process = ctx.Process(target=render_from_queue, name="phri-video",
-                                    args=(self._queue, str(self.output),
+                                    args=(self._batches.queue, str(self.output),
                                           options or VideoOptions(), os.getpid(), child),
                                     daemon=True)
         self._process.start()
@@ -199,21 +192,15 @@ class LiveVideoSink:
     def on_message(self, topic: str, type_name: str, raw: bytes, stamp_ns: int) -> None:
         if self.closed or topic not in VIDEO_TOPICS:
             return
-        self._batch.extend(self._needed.offer((topic, type_name, bytes(raw), stamp_ns)))
-        if len(self._batch) >= BATCH:
-            self._queue.put(self._batch)
-            self._batch = []
+        self._batches.add(self._needed.offer((topic, type_name, bytes(raw), stamp_ns)))
 
     def close(self) -> None:
         """Hand over what is left and the end of the run (idempotent; does not wait)."""
         if self.closed:
             return
         self.closed = True
-        self._batch.extend(self._needed.flush())
-        if self._batch:
-            self._queue.put(self._batch)
-            self._batch = []
-        self._queue.put(None)
+        self._batches.add(self._needed.flush())
+        self._batches.end()
 
     def finish(self) -> Path:
         """Wait until the video is complete; return its path.
@@ -237,7 +224,7 @@ class LiveVideoSink:
     def cancel(self) -> None:
         """Stop rendering (the run was stopped) and remove the partial video."""
         self.closed = True
-        self._queue.cancel_join_thread()
+        self._batches.queue.cancel_join_thread()
         if self._process.is_alive():
             self._process.kill()  # its encoder ends with its input
         self._process.join()
@@ -256,17 +243,11 @@ def render_from_queue(source: Any, output: str, opts: VideoOptions, parent: int,
     live = LiveVideo(opts)
     encoder = _Encoder(Path(output), opts)
     failure: tuple[str, str] | None = None
-    while True:
-        try:
-            batch = source.get(timeout=PARENT_POLL_S)
-        except queue.Empty:
-            if os.getppid() != parent:
-                return
-            continue
-        if batch is None:
-            break
+    for batch in received_batches(source, parent):
         if failure is None:
             failure = encoder.guard(functools.partial(_add_batch, live, encoder, batch))
+    if os.getppid() != parent:  # nobody to hand the video to
+        return
     if failure is None:
         failure = encoder.guard(lambda: encoder.send_all(live.rest()))
     live.close()
