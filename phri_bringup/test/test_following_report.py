@@ -20,6 +20,7 @@ from phri_bringup.reports.following_report import (
     side_by_side,
 )
 from phri_sim.evaluation.following_metrics import following_summary
+from phri_sim.ros.motionless import MOTIONLESS
 from phri_sim.scenarios.catalogue import WALTZ_LINK
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "bringup.md"
@@ -135,7 +136,7 @@ def test_phri_sim_waltz_runs_the_motionless_baseline_beside_the_run(tmp_path: Pa
     assert proc.returncode == 0, proc.stderr[-3000:]
     metrics = json.loads((out / "metrics.json").read_text())
     still = metrics["motionless"]
-    assert still["controller"] == "stub (zero commands)"
+    assert still["controller"] == MOTIONLESS
     assert still["following"]["travel"]["robot"] < 0.005 < metrics["following"]["travel"]["robot"]
     assert "| robot | motionless" in " ".join(proc.stderr.split())
     assert (out / "plots" / "following.png").read_bytes()[:4] == b"\x89PNG"

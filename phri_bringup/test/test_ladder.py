@@ -16,6 +16,7 @@ import pytest
 from phri_bringup.cli.ladder import rung_specs
 from phri_bringup.cli.main import LEAD_CHOICES, PLANT_CHOICES, _parser
 from phri_bringup.reports.ladder_report import ladder_lines
+from phri_sim.ros.run_options import MOTIONLESS
 from phri_sim.studies.unscripted_leads import UNSCRIPTED_LEADS
 from phri_sim.world.actuators import PLANTS
 
@@ -43,7 +44,7 @@ def test_the_table_marks_missed_bars_and_the_bars_that_do_not_apply() -> None:
     robot = _run("x1", "wholebody_controller",
                  {"band_share": False, "turning_lag": None, "rest_time": None,
                   "position_drift_rms": True, "position_drift_max": True})
-    still = _run("x1", "stub (zero commands)", {"band_share": False})
+    still = _run("x1", MOTIONLESS, {"band_share": False})
     lines = ladder_lines({"runs": [robot, still], "wall_time": 12.0, "jobs": 2})
     header = [c.strip() for c in lines[0].split("|")[1:-1]]
     row = dict(zip(header, (c.strip() for c in lines[2].split("|")[1:-1]), strict=True))
@@ -108,7 +109,7 @@ def test_a_small_ladder_on_both_plants(tmp_path: Path) -> None:
     result = json.loads((out / "ladder.json").read_text())
     runs = {(r["plant"], r["controller"]): r for r in result["runs"]}
     assert len(result["runs"]) == 3
-    still = runs[("realistic", "stub (zero commands)")]["following"]
+    still = runs[("realistic", MOTIONLESS)]["following"]
     assert still["base_acceleration"]["commanded"]["max"] == [0.0, 0.0, 0.0]
     real = runs[("realistic", "wholebody_controller")]["following"]
     ideal = runs[("ideal", "wholebody_controller")]["following"]

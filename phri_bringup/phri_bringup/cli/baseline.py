@@ -1,25 +1,21 @@
 """``phri sim``'s motionless baseline, run beside the simulation in a process of its own.
 
-The baseline (:func:`phri_bringup.reports.following_report.run_motionless`: the same scenario
-and options, the zero-command stub in place of the controller) needs nothing from the run, so
+The baseline (:func:`phri_sim.ros.motionless.run_motionless`: the same scenario and options
+played on the simulated world alone, a robot never commanded) needs nothing from the run, so
 :class:`MotionlessBaseline` starts it with the run, in a spawned process on the machine's other
 core, and :meth:`~MotionlessBaseline.result` collects it afterwards. The process builds the same
 scenario value from the same recipe (:class:`Recipe`: the scenario's name, parameter file and
-partner options) and runs in a private ROS domain of its own, localhost only, never the run's:
-its stub's zero commands must not reach the run's simulator (nor the run's commands its own).
-It ignores Ctrl-C (the command stops it when it stops).
+partner options). It runs no node, so it needs no ROS domain of its own. It ignores Ctrl-C (the
+command stops it when it stops).
 """
 
 from __future__ import annotations
 
 import argparse
 import multiprocessing
-import os
 import signal
 from dataclasses import dataclass
 from typing import Any
-
-from phri_common.ros_domain import private_domain_id
 
 
 @dataclass(frozen=True)
@@ -49,21 +45,15 @@ class Recipe:
         return values if vary is None else vary(values)
 
 
-def own_domain(parent: int, pid: int) -> int:
-    """A private domain for the process ``pid`` that is not the run's (``parent``)."""
-    domain = private_domain_id(pid)
-    return domain if domain != parent else domain % 100 + 1
-
-
 class MotionlessBaseline:
     """The motionless baseline of ``recipe`` with ``options`` running in its own process
-    (module docstring); ``domain``: the run's ROS domain, which the baseline avoids."""
+    (module docstring)."""
 
-    def __init__(self, recipe: Recipe, options: Any, domain: int) -> None:
+    def __init__(self, recipe: Recipe, options: Any) -> None:
         ctx = multiprocessing.get_context("spawn")
         self._conn, child = ctx.Pipe(duplex=False)
         self._process = ctx.Process(target=_baseline_process, name="phri-baseline",
-                                    args=(recipe, options, domain, child), daemon=True)
+                                    args=(recipe, options, child), daemon=True)
         self._process.start()
         child.close()
 
@@ -90,12 +80,10 @@ class MotionlessBaseline:
         self._process.join()
 
 
-def _baseline_process(recipe: Recipe, options: Any, parent_domain: int, conn: Any) -> None:
-    """The baseline process: its own domain, the run, the result through ``conn``."""
+def _baseline_process(recipe: Recipe, options: Any, conn: Any) -> None:
+    """The baseline process: the run, the result through ``conn``."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    os.environ["ROS_DOMAIN_ID"] = str(own_domain(parent_domain, os.getpid()))
-    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-    from phri_bringup.reports.following_report import run_motionless
+    from phri_sim.ros.motionless import run_motionless
 
     try:
         result: tuple[str, Any] = ("ok", run_motionless(recipe.scenario(), options))

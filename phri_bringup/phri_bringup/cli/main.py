@@ -339,7 +339,8 @@ def cmd_sim(args: argparse.Namespace) -> int:
         else None
     sinks = _open_sinks(args, out, record_dir)
     video = _start_video(video_path, sinks)
-    baseline = _start_baseline(args, name, _enter_domain(args))
+    _enter_domain(args)
+    baseline = _start_baseline(args, name)
     pace = args.realtime if args.realtime is not None else (1.0 if args.foxglove else None)
     stop = StopFlag()
     previous = {sig: signal.signal(sig, stop.set) for sig in (signal.SIGINT, signal.SIGTERM)}
@@ -473,7 +474,7 @@ def _open_sinks(args: argparse.Namespace, out: Path, record_dir: Path | None) ->
     return sinks
 
 
-def _start_baseline(args: argparse.Namespace, name: str, domain: int) -> Any:
+def _start_baseline(args: argparse.Namespace, name: str) -> Any:
     """Start the motionless baseline beside the run (:mod:`phri_bringup.cli.baseline`) for a
     scenario with following metrics (the waltz), unless ``--no-baseline``; None otherwise."""
     from phri_bringup.cli.baseline import MotionlessBaseline, Recipe
@@ -483,8 +484,8 @@ def _start_baseline(args: argparse.Namespace, name: str, domain: int) -> Any:
     recipe = Recipe.of(name, args.params, args)
     if recipe.scenario().metrics != "waltz":  # no following metrics: nothing to compare
         return None
-    _log("motionless baseline: the same scenario with zero commands, beside the run")
-    return MotionlessBaseline(recipe, _run_options(args), domain)
+    _log("motionless baseline: the same scenario with a robot never commanded, beside the run")
+    return MotionlessBaseline(recipe, _run_options(args))
 
 
 def _cancel(job: Any) -> None:

@@ -1,8 +1,7 @@
-"""Following report of a run: the motionless-robot baseline, the side-by-side table, the plots.
+"""Following report of a run: the side-by-side table with the motionless robot, the plots.
 
-* :func:`run_motionless` runs a scenario again with the zero-command stub in place of the
-  controller (the robot stands still; the partner still dances and presses) and returns its
-  metrics and its :class:`~phri_sim.evaluation.following_metrics.FollowingSeries`;
+The motionless robot itself is :func:`phri_sim.ros.motionless.run_motionless`.
+
 * :func:`side_by_side` formats the ``following`` blocks of the run and the baseline as the table
   ``phri sim`` prints ("robot | motionless");
 * :func:`plot_following` draws ``following.png`` (one per run): the partner's pose in the robot
@@ -17,22 +16,13 @@
 
 from __future__ import annotations
 
-import dataclasses
-from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from phri_bringup.reports.plots import figure
 from phri_sim.evaluation.following_metrics import FollowingSeries, relative_pose
-
-if TYPE_CHECKING:
-    from phri_sim.ros.run_options import RunOptions
-    from phri_sim.scenarios.catalogue import Scenario
-
-Progress = Callable[[float, float], None]
-
 
 ARM_COMMAND_TOPICS = ("/left/forward_velocity_controller/commands",
                       "/right/forward_velocity_controller/commands")
@@ -121,33 +111,6 @@ def replot_following(recording: str | Path, path: Path) -> Path:
 
     series = series_from_recording(recording, WALTZ_LINK)
     return plot_following(path, series, following_summary(series, WALTZ_FORCE))
-
-
-def run_motionless(scenario: Scenario, options: RunOptions | None = None,
-                   progress: Progress | None = None
-                   ) -> tuple[dict[str, Any], FollowingSeries | None]:
-    """Metrics and following series of ``scenario`` run with ``options`` and a motionless robot
-    (the zero-command stub in place of the controller)."""
-    import rclpy
-    from rclpy.context import Context
-    from rclpy.signals import SignalHandlerOptions
-
-    from phri_sim.ros.run_options import RunOptions
-    from phri_sim.ros.runner import ScenarioRun
-
-    context = Context()
-    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
-    run = None
-    try:
-        run = ScenarioRun(scenario, dataclasses.replace(options or RunOptions(), controller="stub"),
-                          context=context, progress=progress)
-        metrics = run.run()
-        series = run.metrics.following_series()
-    finally:
-        if run is not None:
-            run.close()
-        context.try_shutdown()
-    return metrics, series
 
 
 ROWS: tuple[tuple[str, str, float], ...] = (

@@ -14,6 +14,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from phri_sim.ros.run_options import MOTIONLESS
+
 Cell = Callable[[dict[str, Any]], tuple[str, str | None]]
 """A column: (text, the name of the check it shows in ``pass``, if any) of one run."""
 
@@ -114,8 +116,8 @@ def ladder_lines(result: dict[str, Any]) -> list[str]:
     header = ["rung", "plant", *(h for h, _ in COLUMNS), "within the bars"]
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     runs = result["runs"]
-    robots = [r for r in runs if r["controller"] != "stub (zero commands)"]
-    still = {r["rung"]: r for r in runs if r["controller"] == "stub (zero commands)"}
+    robots = [r for r in runs if r["controller"] != MOTIONLESS]
+    still = {r["rung"]: r for r in runs if r["controller"] == MOTIONLESS}
     for run in robots:
         label = f"{run['rung']} ({run['duration']:.0f} s, {run['bars_name']} bars)"
         lines.append(_row(label, run["plant"], run))

@@ -56,8 +56,13 @@ from phri_sim.evaluation.body_forces import (
     limit_report,
     part_region,
 )
-from phri_sim.evaluation.following_metrics import Bars, FollowingSeries, following_summary
-from phri_sim.scenarios.catalogue import WALTZ_FORCE, WALTZ_LINK
+from phri_sim.evaluation.following_metrics import (
+    BAR_SETS,
+    Bars,
+    FollowingSeries,
+    following_summary,
+)
+from phri_sim.scenarios.catalogue import WALTZ_FORCE, WALTZ_LINK, Scenario
 from phri_sim.world.simulation import Simulation
 
 FloatArray = NDArray[np.float64]
@@ -397,3 +402,35 @@ def path_errors(times: FloatArray, leader: FloatArray, follower: FloatArray,
         if r < best:
             best, best_lag = r, k * dt
     return rms, best_lag, best
+
+
+def _dance_ranges(params: Mapping[str, Any]) -> FloatArray | None:
+    """(15, 2) joint bands q_dance ± q_dance_range [rad] for the arms (base unbounded) when the
+    controller's ``q_dance_enabled``; else ``None``."""
+    if not params.get("q_dance_enabled"):
+        return None
+    q = np.array(params["q_dance"], dtype=np.float64)
+    r = float(params["q_dance_range"])
+    ranges = np.full((15, 2), [-np.inf, np.inf])
+    ranges[3:, 0], ranges[3:, 1] = q - r, q + r
+    return ranges
+
+
+def scenario_metrics(scenario: Scenario, sim: Simulation,
+                     fault_time: float | None) -> MetricsRecorder:
+    """The metrics recorder of a run of ``scenario`` on ``sim`` (the controller parameters' velocity
+    limits, dance band and desired waist force), watching its every physics step; the ``fault``
+    block from ``fault_time`` [s] (``None``: no such block)."""
+    params = scenario.controller_parameters
+    desired = params.get(f"{WALTZ_LINK}.desired_force")
+    limit = float(params.get("velocity_limit", paper.VELOCITY_LIMIT))
+    per_axis = params.get("velocity_limits")
+    metrics = MetricsRecorder(
+        scenario.metrics,
+        limit if per_axis is None else np.minimum(np.asarray(per_axis, dtype=float), limit),
+        _dance_ranges(params), fault_time=fault_time,
+        desired_force=WALTZ_FORCE if desired is None else float(np.linalg.norm(desired)),
+        bars=BAR_SETS[scenario.bars],
+    )
+    metrics.watch(sim)
+    return metrics

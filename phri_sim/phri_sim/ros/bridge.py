@@ -55,6 +55,7 @@ from phri_common.stamps import ns_to_stamp
 from phri_common.taxels import TaxelCloudEncoder
 from phri_sim.ros.arm_status import arm_status
 from phri_sim.scenarios.catalogue import Q_HOME, SCENARIOS, Scenario, Script, start_scenario
+from phri_sim.scenarios.playback import period_steps
 from phri_sim.world.actuators import DEFAULT_PLANT, PLANTS
 from phri_sim.world.protective_stop import ProtectiveStopConfig
 from phri_sim.world.sensor_faults import DEFAULT_FAULT_TIME, FAULT_KINDS, FaultSpec, SensorFaults
@@ -434,30 +435,27 @@ class SimBridgeNode(Node):
         """Advance ``periods`` control periods, publishing each topic when it falls due; publish
         /clock at the end unless ``clock`` is False (lock-step publishes it after the sensors
         have been consumed)."""
-        for i in range(periods * self.steps_per_period):
-            # The person's script is evaluated once per control period; in between, each
-            # target moves on with its velocity (Simulation.set_target), so it stays smooth.
-            if self.script is not None and i % self.steps_per_period == 0:
-                for part, target in self.script(self.sim.time).items():
-                    self.sim.set_target(part, target)
-            if i % self.steps_per_period == 0:
-                self.shove.apply(self.sim, self.sim.time)
-            self.sim.step()
-            self._effort_sum += self.sim.robot.efforts()
-            self._effort_steps += 1
-            self.step_count += 1
-            n = self.step_count
-            if n % self._skin_every == 0:
-                self.sample_skin(publish=n % self._publish_every == 0)
-            if self._truth_every and n % self._truth_every == 0:
-                self.publish_ground_truth()
-            if n % self._state_every == 0:
-                self.publish_state()
+        for _ in range(periods):
+            for _ in period_steps(self.sim, self.script, self.shove, self.steps_per_period):
+                self._after_physics_step()
         self.publish_arm_status()
         if clock:
             self.publish_clock()
         if self.viewer is not None:
             self.viewer.sync()
+
+    def _after_physics_step(self) -> None:
+        """The drives' efforts, and the skin, ground truth and state when they fall due."""
+        self._effort_sum += self.sim.robot.efforts()
+        self._effort_steps += 1
+        self.step_count += 1
+        n = self.step_count
+        if n % self._skin_every == 0:
+            self.sample_skin(publish=n % self._publish_every == 0)
+        if self._truth_every and n % self._truth_every == 0:
+            self.publish_ground_truth()
+        if n % self._state_every == 0:
+            self.publish_state()
 
     def _tick(self) -> None:
         self.advance()

@@ -12,9 +12,11 @@ from dataclasses import dataclass
 from typing import Any
 
 from phri_common import paper
+from phri_sim.evaluation.metrics import MetricsRecorder
 from phri_sim.scenarios.catalogue import Scenario
 from phri_sim.world.actuators import DEFAULT_PLANT, PLANTS
-from phri_sim.world.sensor_faults import DEFAULT_FAULT_TIME
+from phri_sim.world.sensor_faults import DEFAULT_FAULT_TIME, SensorFaults
+from phri_sim.world.shove import Shove, ShoveSpec
 
 SKIN_RATE_HZ = 100.0
 """Default taxel rate in lock-step runs: one frame per control period (the controller uses only
@@ -77,6 +79,9 @@ states, ``/clock`` and the commands cross DDS either way. Same inputs, same run
 CONTROLLERS = ("node", "stub")
 """``node``: the real whole-body controller; ``stub``: a stand-in that commands zero (a
 motionless robot, the baseline of the following metrics)."""
+MOTIONLESS = "motionless (never commanded)"
+"""The summary's ``controller`` of a run on the world alone
+(:func:`phri_sim.ros.motionless.run_motionless`)."""
 
 
 def _given(value: Any, default: Any) -> Any:
@@ -148,6 +153,13 @@ class RunOptions:
             return self.duration
         return scenario.short_duration if self.short else scenario.duration
 
+    def watched_time(self, shove: ShoveSpec | None) -> float | None:
+        """From when the metrics' ``fault`` block watches [s]: the fault's time, else the start
+        of ``shove`` (the run's, parsed from :attr:`shove`); ``None`` without either."""
+        if self.fault:
+            return float(self.fault_time)
+        return None if shove is None else shove.time
+
     def bridge_parameters(self, scenario: Scenario) -> dict[str, Any]:
         """The simulation bridge's parameters for this run of ``scenario`` (lock-step)."""
         fid = FIDELITIES[self.fidelity]
@@ -165,3 +177,39 @@ class RunOptions:
             "protective_stop": self.protective_stop,
             "plant": self.plant,
         }
+
+
+def run_summary(metrics: MetricsRecorder, scenario: Scenario, options: RunOptions, *,
+                controller: str, faults: SensorFaults, shove: Shove, sim_time: float,
+                wall_time: float, cpu_time: float) -> dict[str, Any]:
+    """A run's metrics (``metrics.summary()``) with its settings and timing: ``sim_time`` [s]
+    simulated in ``wall_time`` [s] and ``cpu_time`` [s] of the process (all its threads: less
+    sensitive to other load on the machine than the wall clock); ``controller`` names what
+    commanded the robot."""
+    metrics.fault_changes = (faults.first_change, faults.changes)
+    summary = metrics.summary()
+    summary.update({
+        "scenario": scenario.name,
+        "duration": options.length(scenario),
+        "wall_time": wall_time,
+        "real_time_factor": sim_time / max(wall_time, 1e-9),
+        "cpu_time": cpu_time,
+        "real_time_factor_cpu": sim_time / max(cpu_time, 1e-9),
+        "controller": controller,
+        "fidelity": options.fidelity,
+        "skin_driver": options.skin_driver,
+        "sensor_transport": options.sensor_transport,
+        "plant": options.plant,
+        "partner": scenario.partner,
+    })
+    if faults.spec is not None:
+        summary["fault"]["kind"] = faults.spec.kind
+    if shove.spec is not None:
+        summary["shove"] = {"spec": options.shove, "kind": shove.spec.kind,
+                            "time": shove.spec.time, "duration": shove.spec.duration,
+                            "peak_applied": shove.peak,
+                            "direction": None if shove.direction is None
+                            else shove.direction.tolist()}
+        if faults.spec is None:
+            summary["fault"]["kind"] = f"shove {options.shove}"
+    return summary

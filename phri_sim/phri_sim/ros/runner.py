@@ -50,26 +50,21 @@ from typing import Any
 
 import numpy as np
 import rclpy
-from numpy.typing import NDArray
 from rclpy.context import Context
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import Float64MultiArray
 
-from phri_common import paper
 from phri_common.contact import ContactMessageError, msg_to_contact
 from phri_common.records import ContactState
 from phri_description.description import SKIN_LINKS
-from phri_sim.evaluation.following_metrics import BAR_SETS
-from phri_sim.evaluation.metrics import MetricsRecorder
+from phri_sim.evaluation.metrics import scenario_metrics
 from phri_sim.ros.bridge import ARM_TOPICS, SimBridgeNode
 from phri_sim.ros.lockstep import LockStep, LockStepError, Missing
-from phri_sim.ros.run_options import FIDELITIES, SENSOR_TRANSPORTS, RunOptions
+from phri_sim.ros.run_options import FIDELITIES, SENSOR_TRANSPORTS, RunOptions, run_summary
 from phri_sim.scenarios.catalogue import (
     SCENARIOS,
-    WALTZ_FORCE,
-    WALTZ_LINK,
     Scenario,
     scenario_named,
 )
@@ -110,7 +105,6 @@ class ZeroCommandStub(Node):
             pub.publish(Float64MultiArray(data=[0.0] * 6))
 
 
-FloatArray = NDArray[np.float64]
 
 
 def _params(values: Mapping[str, Any]) -> list[Parameter]:
@@ -148,42 +142,6 @@ def _controller_node(kind: str, context: Context, scenario: Scenario, direct: bo
                                    parameter_overrides=[sim_time, *_params(params)])
 
 
-def _dance_ranges(params: Mapping[str, Any]) -> FloatArray | None:
-    """(15, 2) joint bands q_dance ± q_dance_range [rad] for the arms (base unbounded) when the
-    controller's ``q_dance_enabled``; else ``None``."""
-    if not params.get("q_dance_enabled"):
-        return None
-    q = np.array(params["q_dance"], dtype=np.float64)
-    r = float(params["q_dance_range"])
-    ranges = np.full((15, 2), [-np.inf, np.inf])
-    ranges[3:, 0], ranges[3:, 1] = q - r, q + r
-    return ranges
-
-
-def _metrics(scenario: Scenario, sim: Any, fault_time: float | None) -> MetricsRecorder:
-    """The run's metrics recorder, watching every physics step of ``sim``."""
-    params = scenario.controller_parameters
-    desired = params.get(f"{WALTZ_LINK}.desired_force")
-    limit = float(params.get("velocity_limit", paper.VELOCITY_LIMIT))
-    per_axis = params.get("velocity_limits")
-    metrics = MetricsRecorder(
-        scenario.metrics,
-        limit if per_axis is None else np.minimum(np.asarray(per_axis, dtype=float), limit),
-        _dance_ranges(params), fault_time=fault_time,
-        desired_force=WALTZ_FORCE if desired is None else float(np.linalg.norm(desired)),
-        bars=BAR_SETS[scenario.bars],
-    )
-    metrics.watch(sim)
-    return metrics
-
-
-def _watched_time(options: RunOptions, bridge: SimBridgeNode) -> float | None:
-    """From when the metrics' ``fault`` block watches [s]: the fault's time, else the shove's
-    start; ``None`` without either."""
-    if options.fault:
-        return float(options.fault_time)
-    spec = bridge.shove.spec
-    return None if spec is None else spec.time
 
 
 class ScenarioRun:
@@ -239,7 +197,8 @@ class ScenarioRun:
         self.lockstep = LockStep(self.executor, context, nodes,
                                  warn=self.probe.get_logger().warning)
         """Waits for each phase (:mod:`phri_sim.ros.lockstep`)."""
-        self.metrics = _metrics(scenario, self.bridge.sim, _watched_time(options, self.bridge))
+        self.metrics = scenario_metrics(scenario, self.bridge.sim,
+                                        options.watched_time(self.bridge.shove.spec))
         self._last_command = np.zeros(15)
         self._fresh_links: set[str] = set(SKIN_LINKS)
         self._skip_joints = False
@@ -348,37 +307,12 @@ class ScenarioRun:
 
     def _summary(self, cpu_time: float) -> dict[str, Any]:
         """The metrics with the run's settings and timing (CPU time [s] of this process)."""
-        faults = self.bridge.faults
-        self.metrics.fault_changes = (faults.first_change, faults.changes)
-        summary = self.metrics.summary()
-        summary.update({
-            "scenario": self.scenario.name,
-            "duration": self.duration,
-            "wall_time": self.wall_time,
-            "real_time_factor": self.bridge.sim.time / max(self.wall_time, 1e-9),
-            # CPU time of this process (all its threads): less sensitive to other load on the
-            # machine than the wall clock; on an idle machine the two factors come close.
-            "cpu_time": cpu_time,
-            "real_time_factor_cpu": self.bridge.sim.time / max(cpu_time, 1e-9),
-            "controller": "stub (zero commands)" if self.is_stub else "wholebody_controller",
-            "fidelity": self.options.fidelity,
-            "skin_driver": self.options.skin_driver,
-            "sensor_transport": self.options.sensor_transport,
-            "plant": self.options.plant,
-            "partner": self.scenario.partner,
-            "commands_refused": self.bridge.commands_refused,
-        })
-        if faults.spec is not None:
-            summary["fault"]["kind"] = faults.spec.kind
-        shove = self.bridge.shove
-        if shove.spec is not None:
-            summary["shove"] = {"spec": self.options.shove, "kind": shove.spec.kind,
-                                "time": shove.spec.time, "duration": shove.spec.duration,
-                                "peak_applied": shove.peak,
-                                "direction": None if shove.direction is None
-                                else shove.direction.tolist()}
-            if faults.spec is None:
-                summary["fault"]["kind"] = f"shove {self.options.shove}"
+        summary = run_summary(
+            self.metrics, self.scenario, self.options,
+            controller="stub (zero commands)" if self.is_stub else "wholebody_controller",
+            faults=self.bridge.faults, shove=self.bridge.shove, sim_time=self.bridge.sim.time,
+            wall_time=self.wall_time, cpu_time=cpu_time)
+        summary["commands_refused"] = self.bridge.commands_refused
         return summary
 
     def close(self) -> None:
