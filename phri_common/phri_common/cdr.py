@@ -15,6 +15,8 @@ accepts bytes; these pure functions read and write them:
 * :func:`pose_array_from_cdr`: ``geometry_msgs/PoseArray`` → the poses;
 * :func:`twist_from_cdr` / :func:`twist_to_cdr`: ``geometry_msgs/Twist`` ↔ its six numbers
   (the writer: (v_x, v_y, ω_z), the others 0);
+* :func:`wrench_stamped_to_cdr`, :func:`point_stamped_to_cdr`, :func:`pose_array_to_cdr`: the
+  simulator's ground truth, written;
 * :class:`Float64ArrayEncoder`: a fixed layout of ``std_msgs/Float64MultiArray`` with fresh data.
 
 Wire format (OMG XCDR1 as rmw_fastrtps writes it, the same as :mod:`phri_common.contact_cdr`):
@@ -38,6 +40,11 @@ _ENCAPSULATION = LITTLE_ENDIAN + b"\x00\x00"
 _U32 = struct.Struct("<I")
 _TWIST = struct.Struct("<6d")
 _POSE = struct.Struct("<7d")  # position x, y, z; orientation x, y, z, w
+_XYZ = struct.Struct("<3d")
+_HEADER = struct.Struct("<iII")  # stamp.sec, stamp.nanosec, frame_id's length with its NUL
+_NS_PER_S = 1_000_000_000  # phri_common.stamps.NS_PER_S, without its message import
+MAX_STAMP_NS = 2**31 * _NS_PER_S
+"""Stamps from 0 up to (not including) this [ns] fit ``header.stamp.sec`` (an int32)."""
 MAX_NAMES = 4096
 """Most joint names a joint state may carry (a bound against garbage counts)."""
 
@@ -245,6 +252,51 @@ def twist_to_cdr(vx: float, vy: float, wz: float) -> bytes:
     return _ENCAPSULATION + _TWIST.pack(vx, vy, 0.0, 0.0, 0.0, wz)
 
 
+def stamped_header_cdr(stamp_ns: int, frame_id: str, align: int) -> bytearray:
+    """Little-endian encapsulation and ``std_msgs/Header`` (``stamp_ns`` [ns] as sec / nanosec,
+    ``frame_id``), padded to the ``align``-byte alignment of the field that follows.
+
+    Raises:
+        ValueError: a stamp outside 0 ≤ stamp < 2³¹ s, or a frame id with a NUL inside.
+    """
+    if not 0 <= stamp_ns < MAX_STAMP_NS:
+        raise ValueError(f"time stamp = {stamp_ns} ns: allowed 0 <= stamp < {MAX_STAMP_NS} ns "
+                         "(header.stamp.sec is an int32)")
+    if "\x00" in frame_id:
+        raise ValueError(f"frame_id = {frame_id!r}: must not contain NUL")
+    sec, nanosec = divmod(stamp_ns, _NS_PER_S)
+    name = frame_id.encode() + b"\x00"
+    head = bytearray(_ENCAPSULATION + _HEADER.pack(sec, nanosec, len(name)) + name)
+    head += b"\x00" * (-(len(head) - 4) % align)
+    return head
+
+
+def wrench_stamped_to_cdr(stamp_ns: int, frame_id: str, force: Sequence[float],
+                          torque: Sequence[float] = (0.0, 0.0, 0.0)) -> bytes:
+    """A serialized ``geometry_msgs/WrenchStamped``: ``force`` [N] and ``torque`` [N·m] in
+    ``frame_id`` at ``stamp_ns`` [ns] (ValueError as :func:`stamped_header_cdr`)."""
+    return bytes(stamped_header_cdr(stamp_ns, frame_id, 8) + _TWIST.pack(*force, *torque))
+
+
+def point_stamped_to_cdr(stamp_ns: int, frame_id: str, point: Sequence[float]) -> bytes:
+    """A serialized ``geometry_msgs/PointStamped``: ``point`` [m] in ``frame_id`` at
+    ``stamp_ns`` [ns] (ValueError as :func:`stamped_header_cdr`)."""
+    return bytes(stamped_header_cdr(stamp_ns, frame_id, 8) + _XYZ.pack(*point))
+
+
+def pose_array_to_cdr(stamp_ns: int, frame_id: str,
+                      poses: Sequence[Sequence[float]]) -> bytes:
+    """A serialized ``geometry_msgs/PoseArray`` in ``frame_id`` at ``stamp_ns`` [ns]; each pose
+    ``(x, y, z, qx, qy, qz, qw)`` [m, unit quaternion], the order :func:`pose_array_from_cdr`
+    returns (ValueError as :func:`stamped_header_cdr`)."""
+    body = stamped_header_cdr(stamp_ns, frame_id, 4) + _U32.pack(len(poses))
+    if poses:
+        body += b"\x00" * (-(len(body) - 4) % 8)
+    for pose in poses:
+        body += _POSE.pack(*pose)
+    return bytes(body)
+
+
 class Float64ArrayEncoder:
     """Serialized ``std_msgs/Float64MultiArray`` with one ``dim`` (``label``, size = stride =
     ``size``), ``data_offset`` 0 and ``size`` values: the fixed part is built once.
@@ -280,4 +332,5 @@ class Float64ArrayEncoder:
 
 __all__ = ["LITTLE_ENDIAN", "MAX_NAMES", "CdrError", "Float64ArrayEncoder",
            "joint_state_arrays_from_cdr", "joint_state_from_cdr", "odometry_pose_from_cdr",
-           "twist_to_cdr"]
+           "point_stamped_to_cdr", "pose_array_to_cdr", "stamped_header_cdr", "twist_to_cdr",
+           "wrench_stamped_to_cdr"]

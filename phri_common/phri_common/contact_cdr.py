@@ -25,6 +25,7 @@ import struct
 
 from sensor_msgs.msg import PointField
 
+from phri_common.cdr import _HEADER, MAX_STAMP_NS, stamped_header_cdr  # noqa: F401 (re-exported)
 from phri_common.contact import _FIELDS, _STRUCT, contact_data, contact_from_values
 from phri_common.records import ContactState
 from phri_common.stamps import NS_PER_S
@@ -77,8 +78,6 @@ class Template:
 
 TEMPLATE, MASK = layout_template(_FIELDS, _STRUCT.size)
 _CONTACT_TEMPLATE = Template(TEMPLATE, MASK)
-_HEADER = struct.Struct("<iII")  # stamp sec, nanosec, frame_id length
-MAX_STAMP_NS = 2**31 * NS_PER_S
 """First time stamp a message header cannot hold (its ``sec`` is an int32) [ns]."""
 
 
@@ -126,11 +125,5 @@ def contact_to_cdr(state: ContactState) -> bytes:
     Raises:
         ValueError: ``stamp_ns`` outside 0 ≤ stamp < :data:`MAX_STAMP_NS`.
     """
-    if not 0 <= state.stamp_ns < MAX_STAMP_NS:
-        raise ValueError(f"time stamp = {state.stamp_ns} ns: allowed 0 <= stamp < "
-                         f"{MAX_STAMP_NS} ns (header.stamp.sec is an int32)")
-    sec, nanosec = divmod(state.stamp_ns, NS_PER_S)
-    name = state.link.encode() + b"\x00"
-    head = b"\x00\x01\x00\x00" + _HEADER.pack(sec, nanosec, len(name)) + name
-    head += b"\x00" * (-(len(head) - 4) % 4)
-    return head + TEMPLATE + contact_data(state) + b"\x01"  # is_dense
+    head = stamped_header_cdr(state.stamp_ns, state.link, 4)
+    return bytes(head) + TEMPLATE + contact_data(state) + b"\x01"  # is_dense

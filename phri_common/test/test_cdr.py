@@ -10,6 +10,8 @@ from typing import Any
 import numpy as np
 import pytest
 from geometry_msgs.msg import PointStamped, Pose, PoseArray, Twist, WrenchStamped
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from nav_msgs.msg import Odometry
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
@@ -23,11 +25,15 @@ from phri_common.cdr import (
     joint_state_from_cdr,
     odometry_from_cdr,
     odometry_pose_from_cdr,
+    point_stamped_to_cdr,
     pose_array_from_cdr,
+    pose_array_to_cdr,
     stamped_xyz_from_cdr,
     twist_from_cdr,
     twist_to_cdr,
+    wrench_stamped_to_cdr,
 )
+from phri_common.stamps import ns_to_stamp
 
 RNG_SEED = 15
 
@@ -262,3 +268,47 @@ def test_a_pose_count_beyond_the_bytes_is_refused() -> None:
     struct.pack_into("<I", data, 4 + 16, 1000)  # header: stamp 8, frame_id "" 5, pad to 16
     with pytest.raises(CdrError, match="poses: 1000 poses do not fit"):
         pose_array_from_cdr(bytes(data))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31 * 10**9 - 1), st.text(alphabet=st.characters(
+    blacklist_characters="\x00", blacklist_categories=("Cs",)), max_size=24),
+    st.lists(st.lists(st.floats(allow_nan=False, width=64), min_size=7, max_size=7),
+             max_size=4))
+def test_ground_truth_bytes_read_back_as_the_messages(stamp_ns: int, frame_id: str,
+                                                      poses: list[list[float]]) -> None:
+    """Any stamp, any frame id (every length: every padding) and any pose count: rclpy reads
+    the written bytes back as the message built by hand, and they are as long as rclpy's."""
+    stamp = ns_to_stamp(stamp_ns)
+    wrench = WrenchStamped()
+    wrench.header.stamp, wrench.header.frame_id = stamp, frame_id
+    wrench.wrench.force.x, wrench.wrench.force.y, wrench.wrench.force.z = 1.5, -2.0, 3.25
+    wrench.wrench.torque.z = 0.5
+    point = PointStamped()
+    point.header.stamp, point.header.frame_id = stamp, frame_id
+    point.point.x, point.point.y, point.point.z = 0.1, 0.2, -0.3
+    array = PoseArray()
+    array.header.stamp, array.header.frame_id = stamp, frame_id
+    for v in poses:
+        pose = Pose()
+        pose.position.x, pose.position.y, pose.position.z = v[0:3]
+        pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w = v[3:7]
+        array.poses.append(pose)
+    written = (
+        (wrench, wrench_stamped_to_cdr(stamp_ns, frame_id, (1.5, -2.0, 3.25), (0.0, 0.0, 0.5))),
+        (point, point_stamped_to_cdr(stamp_ns, frame_id, (0.1, 0.2, -0.3))),
+        (array, pose_array_to_cdr(stamp_ns, frame_id, poses)),
+    )
+    for msg, data in written:
+        assert deserialize_message(data, type(msg)) == msg
+        assert len(data) == len(serialize_message(msg))
+    assert pose_array_from_cdr(written[2][1]) == [tuple(v) for v in poses]
+
+
+def test_ground_truth_writers_refuse_what_a_header_cannot_carry() -> None:
+    with pytest.raises(ValueError, match="time stamp = -1 ns"):
+        wrench_stamped_to_cdr(-1, "link", (0.0, 0.0, 0.0))
+    with pytest.raises(ValueError, match="time stamp"):
+        point_stamped_to_cdr(2**31 * 10**9, "link", (0.0, 0.0, 0.0))
+    with pytest.raises(ValueError, match="frame_id"):
+        pose_array_to_cdr(0, "a\x00b", [])

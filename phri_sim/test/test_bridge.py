@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from geometry_msgs.msg import WrenchStamped
+from geometry_msgs.msg import PointStamped, PoseArray, WrenchStamped
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -52,13 +52,20 @@ def test_refuses_a_step_that_does_not_divide_the_period(ros_context: Any) -> Non
 @pytest.mark.ros
 def test_ground_truth_and_skin_reach_a_subscriber(ros_context: Any) -> None:
     """Ground truth is published when someone listens: the waist's true force on the forearm
-    (≈ the 10 N preload) and the forearm's taxels, whose total equals it within 2 %."""
+    (≈ the 10 N preload) and its centre, stamped in the link's frame, the person's poses as the
+    simulation holds them (x y z w), and the forearm's taxels, whose total equals the force
+    within 2 %."""
     node = _bridge(ros_context, skin_noise_std=0.0)
     probe = Node("probe", context=ros_context)
     wrenches: list[WrenchStamped] = []
+    centers: list[PointStamped] = []
+    poses: list[PoseArray] = []
     skins: list[PointCloud2] = []
     probe.create_subscription(WrenchStamped, "sim/contacts/left_forearm_link/wrench",
                               wrenches.append, 10)
+    probe.create_subscription(PointStamped, "sim/contacts/left_forearm_link/center",
+                              centers.append, 10)
+    probe.create_subscription(PoseArray, "sim/person/poses", poses.append, 10)
     probe.create_subscription(PointCloud2, "skin/left_forearm/taxels", skins.append, 10)
     executor = SingleThreadedExecutor(context=ros_context)
     executor.add_node(node)
@@ -67,10 +74,23 @@ def test_ground_truth_and_skin_reach_a_subscriber(ros_context: Any) -> None:
         assert spin_until(executor, lambda: node.count_subscribers(
             "sim/contacts/left_forearm_link/wrench") > 0, timeout_s=60.0)
         node.advance(1)
-        assert spin_until(executor, lambda: bool(wrenches) and bool(skins), timeout_s=60.0)
+        assert spin_until(executor, lambda: bool(wrenches) and bool(skins) and bool(centers)
+                          and bool(poses), timeout_s=60.0)
         f = wrenches[-1].wrench.force
         magnitude = (f.x**2 + f.y**2 + f.z**2) ** 0.5
         assert magnitude == pytest.approx(10.0, rel=0.15)
+        truth = node.sim.ground_truth()["left_forearm_link"]
+        c = centers[-1]
+        assert (c.header.frame_id, c.point.x, c.point.y, c.point.z) == (
+            "left_forearm_link", *truth.center_link.tolist())
+        stamp = poses[-1].header.stamp
+        assert stamp.sec * 10**9 + stamp.nanosec == node.stamp_ns
+        assert poses[-1].header.frame_id == "odom"
+        for part, pose in zip(node.sim.parts, poses[-1].poses, strict=True):
+            pos, quat = node.sim.part_pose(part.name)
+            o = pose.orientation
+            assert [pose.position.x, pose.position.y, pose.position.z] == pos.tolist()
+            assert [o.w, o.x, o.y, o.z] == quat.tolist()
         total = float(msg_to_taxels(skins[-1]).forces.sum())
         normal = node.sim.ground_truth()["left_forearm_link"].normal_force
         assert total == pytest.approx(normal, rel=0.02)

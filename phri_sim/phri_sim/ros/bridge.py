@@ -28,13 +28,9 @@ from typing import Any
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import (
-    Point,
     PointStamped,
-    Pose,
     PoseArray,
-    Quaternion,
     Twist,
-    Vector3,
     WrenchStamped,
 )
 from nav_msgs.msg import Odometry
@@ -42,10 +38,11 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState, PointCloud2
-from std_msgs.msg import Float64MultiArray, Header
+from std_msgs.msg import Float64MultiArray
 from std_srvs.srv import Trigger
 
 from phri_common import paper
+from phri_common.cdr import point_stamped_to_cdr, pose_array_to_cdr, wrench_stamped_to_cdr
 from phri_common.params import ParamSpec, ParamValue
 from phri_common.planar import quaternion_from_yaw
 from phri_common.records import TaxelArray
@@ -628,31 +625,23 @@ class SimBridgeNode(Node):
         pubs = (*self.wrench_pubs.values(), *self.center_pubs.values(), self.person_pub)
         if not any(pub.get_subscription_count() > 0 for pub in pubs):
             return
-        stamp = ns_to_stamp(self.stamp_ns)
+        # Serialized here (phri_common.cdr): building the messages' Python objects cost more
+        # than the rest of publishing them.
+        stamp = self.stamp_ns
         for link, gt in self.sim.ground_truth().items():
-            header = Header(stamp=stamp, frame_id=link)
             if self.wrench_pubs[link].get_subscription_count() > 0:
-                msg = WrenchStamped(header=header)
-                f = gt.force_link
-                msg.wrench.force = Vector3(x=float(f[0]), y=float(f[1]), z=float(f[2]))
-                self.wrench_pubs[link].publish(msg)
+                self.wrench_pubs[link].publish(
+                    wrench_stamped_to_cdr(stamp, link, gt.force_link.tolist()))
             if gt.in_contact and self.center_pubs[link].get_subscription_count() > 0:
-                c = gt.center_link
                 self.center_pubs[link].publish(
-                    PointStamped(header=header, point=Point(x=float(c[0]), y=float(c[1]),
-                                                            z=float(c[2])))
-                )
+                    point_stamped_to_cdr(stamp, link, gt.center_link.tolist()))
         if self.person_pub.get_subscription_count() == 0:
             return
-        poses = PoseArray(header=Header(stamp=stamp, frame_id="odom"))
+        poses = []
         for part in self.sim.parts:
-            pos, quat = self.sim.part_pose(part.name)
-            poses.poses.append(Pose(
-                position=Point(x=float(pos[0]), y=float(pos[1]), z=float(pos[2])),
-                orientation=Quaternion(w=float(quat[0]), x=float(quat[1]), y=float(quat[2]),
-                                       z=float(quat[3])),
-            ))
-        self.person_pub.publish(poses)
+            pos, quat = self.sim.part_pose(part.name)  # quat: w, x, y, z
+            poses.append((*pos.tolist(), *quat[1:4].tolist(), float(quat[0])))
+        self.person_pub.publish(pose_array_to_cdr(stamp, "odom", poses))
 
     # -- viewer ---------------------------------------------------------------------------------
     def _open_viewer(self) -> None:
