@@ -19,6 +19,7 @@ from wholebody_controller.messages import (
     msg_to_task_state,
     odom_to_base,
     task_state_from_cdr,
+    task_state_to_cdr,
     task_state_to_msg,
 )
 
@@ -92,11 +93,17 @@ def test_task_state_round_trip_keeps_every_field() -> None:
     assert (msg.header.stamp.sec, msg.header.stamp.nanosec) == (123, 456)
     assert [f.name for f in msg.fields] == list(TASK_STATE_FIELDS)
     assert msg_to_task_state(msg) == expected
-    from rclpy.serialization import serialize_message
+    from rclpy.serialization import deserialize_message, serialize_message
+    from sensor_msgs.msg import PointCloud2
 
     for frame in ("odom", "world_frame_"):  # either padding after the frame id
         msg.header.frame_id = frame
         assert task_state_from_cdr(serialize_message(msg)) == expected
+        # The node publishes the bytes written without the message: rclpy reads them back as it.
+        written = task_state_to_cdr(task, np.array(error), 123_000_000_456, frame)
+        assert deserialize_message(written, PointCloud2) == msg
+        assert len(written) == len(serialize_message(msg))
+        assert task_state_from_cdr(written) == expected
 
 
 def test_task_state_bytes_of_another_layout_are_left_to_the_reference() -> None:

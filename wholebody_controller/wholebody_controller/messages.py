@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 from sensor_msgs.msg import JointState, PointCloud2
 from std_msgs.msg import Float64MultiArray, Header, MultiArrayDimension
 
+from phri_common.cdr import stamped_header_cdr
 from phri_common.cloud import cloud_records, point_fields, record_dtype
 from phri_common.contact_cdr import Template, cloud_header, layout_template, matches
 from phri_common.periodic import PeriodicThread
@@ -78,7 +79,8 @@ TASK_STATE_FIELDS: tuple[str, ...] = tuple(_STATE_DTYPE.names or ())
 _STATE_FIELDS = point_fields(_STATE_DTYPE)
 _STATE_PACK = struct.Struct(f"<{len(TASK_STATE_FIELDS) - 2}dBB")
 assert _STATE_PACK.size == _STATE_DTYPE.itemsize
-_STATE_TEMPLATE = Template(*layout_template(_STATE_FIELDS, _STATE_PACK.size))
+_STATE_BYTES, _STATE_MASK = layout_template(_STATE_FIELDS, _STATE_PACK.size)
+_STATE_TEMPLATE = Template(_STATE_BYTES, _STATE_MASK)
 """The task state's CDR bytes from height to the data length (:func:`task_state_from_cdr`)."""
 
 
@@ -153,14 +155,12 @@ def positions_by_name(names: Sequence[str], positions: Sequence[float]) -> dict[
     return dict(zip(names, values, strict=True))
 
 
-def task_state_to_msg(
-    task: TaskOutput, tracking_error: Array, stamp_ns: int, frame_id: str
-) -> PointCloud2:
-    """One link's controller state as a one-point PointCloud2 (fields :data:`TASK_STATE_FIELDS`)."""
-    # Record order (_VECTOR_FIELDS): deflection, deflection_velocity, wrench, track_force,
-    # control_velocity, tracking_error, center_link; taken from the output's floats.
+def _task_state_data(task: TaskOutput, tracking_error: Array) -> bytes:
+    """The record of :data:`TASK_STATE_FIELDS`: ψ, ψ_raw, deflection, deflection_velocity,
+    wrench, track_force, control_velocity, tracking_error, center_link (the output's floats),
+    phase, in_contact."""
     v = task.values
-    data = _STATE_PACK.pack(
+    return _STATE_PACK.pack(
         float(task.psi),
         float(task.psi_raw),
         *v[DEFLECTION],
@@ -173,6 +173,12 @@ def task_state_to_msg(
         int(task.phase),
         1 if task.in_contact else 0,
     )
+
+
+def task_state_to_msg(
+    task: TaskOutput, tracking_error: Array, stamp_ns: int, frame_id: str
+) -> PointCloud2:
+    """One link's controller state as a one-point PointCloud2 (fields :data:`TASK_STATE_FIELDS`)."""
     return PointCloud2(
         header=Header(stamp=ns_to_stamp(stamp_ns), frame_id=frame_id),
         height=1,
@@ -181,9 +187,21 @@ def task_state_to_msg(
         is_bigendian=False,
         point_step=_STATE_DTYPE.itemsize,
         row_step=_STATE_DTYPE.itemsize,
-        data=data,
+        data=_task_state_data(task, tracking_error),
         is_dense=True,
     )
+
+
+def task_state_to_cdr(task: TaskOutput, tracking_error: Array, stamp_ns: int,
+                      frame_id: str) -> bytes:
+    """:func:`task_state_to_msg` serialized, for ``Publisher.publish``: written from the layout's
+    fixed bytes, without the 40 ``PointField`` objects rclpy would convert on every publish.
+
+    Raises:
+        ValueError: ``stamp_ns`` outside what a header holds, a NUL in ``frame_id``.
+    """
+    head = stamped_header_cdr(stamp_ns, frame_id, 4)
+    return bytes(head) + _STATE_BYTES + _task_state_data(task, tracking_error) + b"\x01"
 
 
 def task_state_from_cdr(data: bytes) -> dict[str, float] | None:

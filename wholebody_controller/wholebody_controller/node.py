@@ -86,7 +86,7 @@ from wholebody_controller.messages import (
     robot_statuses,
     safety_status,
     speed_scaling_fraction,
-    task_state_to_msg,
+    task_state_to_cdr,
 )
 from wholebody_controller.parameters import (
     GLOBAL_PARAMS,
@@ -555,7 +555,7 @@ class WholeBodyControllerNode(Node):
             if pub.get_subscription_count() > 0:  # debugging output: skip when nobody listens
                 # tracking_errors is computed on first access: only when someone listens.
                 error = result.tracking_errors[i]
-                pub.publish(task_state_to_msg(task, error, now_ns, frame))
+                pub.publish(task_state_to_cdr(task, error, now_ns, frame))
         self.good_cycles += 1
 
     def _safe_stopped(self) -> bool:
