@@ -47,7 +47,10 @@ whole-process pauses that lost frames before ``phri_common.settle`` (docs/benchm
 ``--save DIR`` keeps the raw records (.npz) for a closer look.
 
 Run: ``.venv/bin/python bench/bench_chain.py [--seconds 60] [--taxels 2000] [--boards 3]
-[--rate 500] [--executor events|single] [--composed 50] [--no-markers] [--save DIR]``.
+[--rate 500] [--executor events|single] [--composed 50] [--no-markers] [--priority 50]
+[--save DIR]``. ``--priority N`` runs the skin drivers' reading thread and the controller's
+control thread under SCHED_FIFO at N (their ``thread_priority``, as a robot PC would) and the
+simulated boards too (they stand in for hardware).
 Keep runs ≤ 2 min on a shared machine.
 """
 
@@ -86,11 +89,16 @@ moving average."""
 
 # -- simulated boards ---------------------------------------------------------------------------
 def _board_process(index: int, port: str, layout_file: str, rate: float, stop: Any,
-                   queue: Any) -> None:
+                   queue: Any, priority: int = 0) -> None:
     """One board on its own pty, pressed with the coded force; report per frame sent:
     (board time [ns], write end [ns, wall clock], press force [µN], cut off: 1 when the pty
-    was full for the write timeout and the frame's tail was dropped, as a UART would)."""
+    was full for the write timeout and the frame's tail was dropped, as a UART would). With
+    ``priority`` > 0 under SCHED_FIFO: a board is hardware, which other load never delays."""
+    from phri_common.periodic import set_fifo_priority
     from skin_driver.layout import load_layout
+
+    if priority > 0:
+        set_fifo_priority(priority)
     from skin_driver.sim_board import PtyEndpoint, SimBoard, press_pattern, run_boards
 
     layout = load_layout(layout_file)
@@ -306,7 +314,8 @@ def _composed_params(tmp: Path, layouts: list[Path], args: argparse.Namespace) -
     sections: dict[str, Any] = {
         f"skin_driver_{i}": {"ros__parameters": {
             "port": str(tmp / f"port{i}"), "board_ids": [0], "layout_files": [str(layout)],
-            "taxel_publish_rate_hz": float(args.composed)}}
+            "taxel_publish_rate_hz": float(args.composed),
+            "thread_priority": args.priority}}
         for i, layout in enumerate(layouts)
     }
     sections["contact_estimation"] = {"ros__parameters": {
@@ -336,6 +345,7 @@ def _start_nodes(tmp: Path, layouts: list[Path], args: argparse.Namespace,
                 str(bindir / "skin_driver_node"), "--ros-args", "-r",
                 f"__node:=skin_driver_{i}", "-p", f"port:={tmp / f'port{i}'}",
                 "-p", "board_ids:=[0]", "-p", f"layout_files:=['{layout}']",
+                "-p", f"thread_priority:={args.priority}",
             ], env=env)
         procs["contact_estimation"] = subprocess.Popen(
             [str(bindir / "contact_estimation_node"), "--ros-args",
@@ -343,7 +353,8 @@ def _start_nodes(tmp: Path, layouts: list[Path], args: argparse.Namespace,
              "-p", f"marker_rate_hz:={args.marker_rate}"], env=env)
     procs["wholebody_controller"] = subprocess.Popen(
         [sys.executable, __file__, "--controller-probe", str(tmp / "controller"),
-         "--ros-args", "-p", f"rate_hz:={args.controller_rate}"], env=env)
+         "--ros-args", "-p", f"rate_hz:={args.controller_rate}",
+         "-p", f"thread_priority:={args.priority}"], env=env)
     return procs
 
 
@@ -664,7 +675,7 @@ def measure(args: argparse.Namespace, tmp: Path) -> None:
     stop, queue = ctx.Event(), ctx.Queue()
     layouts = _write_layouts(tmp, args.boards, args.taxels)
     boards = [ctx.Process(target=_board_process, args=(i, str(tmp / f"port{i}"), str(f),
-                                                       args.rate, stop, queue))
+                                                       args.rate, stop, queue, args.priority))
               for i, f in enumerate(layouts)]
     for b in boards:
         b.start()
@@ -739,11 +750,14 @@ def main(argv: Sequence[str] | None = None) -> int:
                    help="contact_estimation marker_rate_hz (0 = every state, as before 15)")
     p.add_argument("--no-markers", dest="markers", action="store_false",
                    help="contact_estimation publish_markers:=false")
+    p.add_argument("--priority", type=int, default=0, choices=range(0, 100), metavar="0-99",
+                   help="thread_priority of the skin drivers' and the controller's threads, "
+                        "and SCHED_FIFO for the simulated boards (hardware); 0 = off")
     p.add_argument("--save", metavar="DIR", default=None,
                    help="keep the raw records (frames sent, probes) in DIR as .npz")
     args = p.parse_args(argv)
     isolate_ros_environment()
-    print(load_line())
+    print(load_line(), f"; thread_priority {args.priority}" if args.priority else "")
     tmp = Path(tempfile.mkdtemp(prefix="bench_chain_"))
     try:
         measure(args, tmp)

@@ -31,6 +31,16 @@ def set_fifo_priority(priority: int) -> None:
     os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
 
 
+def fifo_refusal(priority: int, set_priority: Callable[[int], None] = set_fifo_priority) -> str:
+    """Put the calling thread under SCHED_FIFO at ``priority`` (1–99) with ``set_priority``;
+    '' when granted, else why not (the thread stays under the normal scheduler)."""
+    try:
+        set_priority(priority)
+    except (PermissionError, OSError) as err:
+        return f"SCHED_FIFO priority {priority} refused: {err}"
+    return ""
+
+
 def next_deadline(deadline: float, now: float, period: float) -> tuple[float, int]:
     """The first deadline after ``now`` on the grid ``deadline + k·period`` (k ≥ 1) [s], and how
     many grid deadlines were skipped because ``now`` had passed them.
@@ -112,10 +122,7 @@ class PeriodicThread:
 
     def _run(self) -> None:
         if self.priority > 0:
-            try:
-                self._set_priority(self.priority)
-            except (PermissionError, OSError) as err:
-                self.priority_error = f"SCHED_FIFO priority {self.priority} refused: {err}"
+            self.priority_error = fifo_refusal(self.priority, self._set_priority) or None
         self._started.set()
         deadline = self._clock()
         while not self._stop.is_set():

@@ -109,6 +109,10 @@ PARAMS: list[ParamSpec] = [
               "numpy (the reference); same forces to rounding", read_only=True),
     ParamSpec("qos_depth", 5, "keep-last depth of the taxel publishers (reliable)",
               unit="messages", low=1, high=1000, read_only=True),
+    ParamSpec("thread_priority", 0, "serial reading thread (composed: the shared one, at the "
+              "highest its drivers ask): 0 = the normal scheduler, 1–99 = SCHED_FIFO at that "
+              "priority (needs an rtprio limit or CAP_SYS_NICE; refused → warning, normal "
+              "scheduler)", "-", 0, 99, read_only=True),
 ]
 
 
@@ -370,6 +374,8 @@ class SkinDriverNode(Node):
             on_connect=self._on_connect,
             on_error=self._on_port_error,
             poller=self._poller,
+            priority=int(v["thread_priority"]),
+            on_priority_refused=lambda message: self.get_logger().warning(message),
         )
 
     # ------------------------------------------------------------------ serial thread side

@@ -34,7 +34,14 @@ from typing import Any
 
 import serial
 
+from phri_common.periodic import PRIORITY_RANGE, fifo_refusal, set_fifo_priority
+
 READ_CHUNK_MAX = 1 << 16
+
+
+_REFUSED = ("thread_priority: {}; reading under the normal scheduler (an rtprio limit grants "
+            "it: docs/bringup_guide.md, \"Control PC timing\")")
+"""What a reader reports when SCHED_FIFO is refused (``{}``: the system's answer)."""
 
 
 @dataclass
@@ -67,8 +74,14 @@ class PortPoller:
     it is readable (module docstring). The thread runs while at least one port is registered.
     """
 
-    def __init__(self, name: str = "serial-poller") -> None:
+    def __init__(self, name: str = "serial-poller", *,
+                 set_priority: Callable[[int], None] = set_fifo_priority) -> None:
         self.name = name
+        self._set_priority = set_priority
+        self._priority = 0
+        """The highest ``priority`` a registration asked for (SCHED_FIFO; 0 = normal)."""
+        self._applied = 0
+        self._refused: list[Callable[[str], None]] = []
         self._handlers: dict[int, Callable[[], None]] = {}
         self._cond = threading.Condition()
         self._passes = 0
@@ -82,10 +95,18 @@ class PortPoller:
         with self._cond:
             return len(self._handlers)
 
-    def add(self, fd: int, handler: Callable[[], None]) -> None:
-        """Call ``handler()`` on the poller thread whenever ``fd`` is readable."""
+    def add(self, fd: int, handler: Callable[[], None], *, priority: int = 0,
+            on_refused: Callable[[str], None] | None = None) -> None:
+        """Call ``handler()`` on the poller thread whenever ``fd`` is readable. ``priority``
+        1–99 asks for the thread to run under SCHED_FIFO at (at least) that priority, as
+        :class:`SerialReader`'s own thread would; a refusal is told to ``on_refused`` from the
+        poller thread, which then goes on under the normal scheduler."""
         with self._cond:
             self._handlers[fd] = handler
+            if priority > self._priority:
+                self._priority = priority
+                if on_refused is not None:
+                    self._refused.append(on_refused)
             if self._thread is None:
                 self._thread = threading.Thread(target=self._run, name=self.name, daemon=True)
                 self._thread.start()
@@ -111,6 +132,13 @@ class PortPoller:
                     self._cond.notify_all()
                     return
                 fds = list(self._handlers)
+                wanted, refused = self._priority, self._refused
+                self._refused = []
+            if wanted > self._applied:
+                self._applied = wanted
+                message = fifo_refusal(wanted, self._set_priority)
+                for report in refused if message else []:
+                    report(_REFUSED.format(message))
             try:
                 ready, _, _ = select.select([self._wake_r, *fds], [], [], 0.1)
             except OSError:  # a descriptor closed under us: the next pass has a fresh list
@@ -143,6 +171,11 @@ class SerialReader:
         on_error: called with a message whenever something fails (open, read, on_data).
         open_port: factory for the port object (tests substitute a fake).
         poller: read a POSIX port on this shared thread instead of this reader's own.
+        priority: 1–99: read under SCHED_FIFO at this priority (the poller's thread at the
+            highest its readers ask); 0: the normal scheduler.
+        on_priority_refused: called with a message when the system refuses it (default
+            ``on_error``); the reading goes on under the normal scheduler.
+        set_priority: puts the calling thread under SCHED_FIFO (tests substitute a fake).
     """
 
     def __init__(
@@ -159,6 +192,9 @@ class SerialReader:
         on_error: Callable[[str], None] | None = None,
         open_port: Callable[..., Any] = serial.serial_for_url,
         poller: PortPoller | None = None,
+        priority: int = 0,
+        on_priority_refused: Callable[[str], None] | None = None,
+        set_priority: Callable[[int], None] = set_fifo_priority,
     ) -> None:
         if not (0 < backoff_initial <= backoff_max):
             raise ValueError("need 0 < backoff_initial <= backoff_max")
@@ -174,6 +210,12 @@ class SerialReader:
         self._on_error = on_error
         self._open_port = open_port
         self._poller = poller
+        if not PRIORITY_RANGE[0] <= priority <= PRIORITY_RANGE[1]:
+            raise ValueError(f"priority must be in [{PRIORITY_RANGE[0]}, {PRIORITY_RANGE[1]}], "
+                             f"got {priority!r}")
+        self._priority = priority
+        self._set_priority = set_priority
+        self._on_priority_refused = on_priority_refused or self._report
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._port: Any = None
@@ -214,6 +256,10 @@ class SerialReader:
                 port.close()
 
     def _run(self) -> None:
+        if self._priority > 0 and self._poller is None:
+            message = fifo_refusal(self._priority, self._set_priority)
+            if message:
+                self._on_priority_refused(_REFUSED.format(message))
         backoff = self._backoff_initial
         while not self._stop.is_set():
             try:
@@ -268,7 +314,7 @@ class SerialReader:
                 return
             self._deliver(chunk)
 
-        poller.add(fd, readable)
+        poller.add(fd, readable, priority=self._priority, on_refused=self._on_priority_refused)
         try:
             while not (lost.is_set() or self._stop.is_set()):
                 lost.wait(self._read_timeout)

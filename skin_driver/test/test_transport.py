@@ -139,3 +139,85 @@ def test_a_shared_poller_reads_every_port_on_one_thread_and_survives_a_lost_one(
             endpoint.close()
     assert poller.ports == 0
     assert _wait(lambda: "test-poller" not in {t.name for t in threading.enumerate()})
+
+
+class FifoRecorder:
+    """Stands in for ``set_fifo_priority``: records (thread name, priority); refuses when told."""
+
+    def __init__(self, refuse: bool = False) -> None:
+        self.calls: list[tuple[str, int]] = []
+        self.refuse = refuse
+
+    def __call__(self, priority: int) -> None:
+        self.calls.append((threading.current_thread().name, priority))
+        if self.refuse:
+            raise PermissionError("Operation not permitted")
+
+
+def _read_once_with_priority(link: str, endpoint: PtyEndpoint, refuse: bool
+                             ) -> tuple[FifoRecorder, list[str]]:
+    """A reader at priority 40 reads one write; what it asked for and what it reported."""
+    fifo, refusals, data = FifoRecorder(refuse), [], []
+    reader = SerialReader(link, lambda c, t: data.append(c), priority=40,
+                          on_priority_refused=refusals.append, set_priority=fifo)
+    reader.start()
+    try:
+        assert _wait(lambda: reader.stats.connected)
+        endpoint.write(b"frame")
+        assert _wait(lambda: b"".join(data) == b"frame")
+    finally:
+        reader.stop()
+    return fifo, refusals
+
+
+def test_a_reader_asks_for_its_priority_on_its_own_thread_and_reports_a_refusal(
+    tmp_path: object,
+) -> None:
+    """``priority`` > 0: the reading thread (not the caller) asks for SCHED_FIFO once; refused,
+    the reader says so through ``on_priority_refused`` and reads on."""
+    link = f"{tmp_path}/port"
+    endpoint = PtyEndpoint(link, write_timeout=WAIT_S)
+    try:
+        fifo, refusals = _read_once_with_priority(link, endpoint, refuse=False)
+        assert fifo.calls == [(f"serial:{link}", 40)] and refusals == []
+        fifo, refusals = _read_once_with_priority(link, endpoint, refuse=True)
+        assert fifo.calls == [(f"serial:{link}", 40)] and len(refusals) == 1
+        assert "thread_priority: SCHED_FIFO priority 40 refused" in refusals[0]
+        assert "normal scheduler" in refusals[0]
+    finally:
+        endpoint.close()
+    fifo = FifoRecorder()
+    reader = SerialReader(link, lambda c, t: None, set_priority=fifo)  # priority 0: not asked
+    reader.start()
+    reader.stop()
+    assert fifo.calls == []
+
+
+def test_a_shared_poller_runs_at_the_highest_priority_its_readers_ask(tmp_path: object) -> None:
+    """Readers on one PortPoller asking 10, 30, then 20: the poller's thread asks for 10, then
+    30, never lower again; a refusal reaches the readers that asked."""
+    from skin_driver.transport import PortPoller
+
+    fifo = FifoRecorder(refuse=True)
+    poller = PortPoller("prio-poller", set_priority=fifo)
+    links = [f"{tmp_path}/p{i}" for i in range(3)]
+    endpoints = [PtyEndpoint(link, write_timeout=WAIT_S) for link in links]
+    refusals: list[list[str]] = [[], [], []]
+    data: list[bytes] = []
+    readers: list[SerialReader] = []
+    try:
+        for i, (link, priority) in enumerate(zip(links, (10, 30, 20), strict=True)):
+            readers.append(SerialReader(link, lambda c, t: data.append(c), poller=poller,
+                                        priority=priority, on_priority_refused=refusals[i].append))
+            readers[-1].start()
+            assert _wait(lambda n=i + 1: poller.ports == n)
+            endpoints[i].write(b"%d" % i)  # read on a pass after the registration
+            assert _wait(lambda n=i + 1: len(data) == n)
+        assert fifo.calls == [("prio-poller", 10), ("prio-poller", 30)]
+        assert [len(r) for r in refusals] == [1, 1, 0]
+        assert "SCHED_FIFO priority 30 refused" in refusals[1][0]
+    finally:
+        for reader in readers:
+            reader.stop()
+        for endpoint in endpoints:
+            endpoint.close()
