@@ -1,6 +1,10 @@
 """Benchmark: the whole 500 Hz chain, end to end, each node in its own process as deployed.
 
-Simulated boards (one process and one pty per board) → ``skin_driver`` nodes (one per port) →
+Simulated boards (one process and one pty per board; ``--transport socket``: a TCP server per
+board on localhost, as boards on Ethernet, since a pty holds 4 KB and a 10,000-taxel frame is
+20 KB, so a board on a pty waits for the reader within every frame; the boards draw their noise
+from a bank of 64 frames so that, standing in for hardware, they load the host less) →
+``skin_driver`` nodes (one per port) →
 ``contact_estimation`` → ``wholebody_controller`` at ``--controller-rate``. This process stands
 in for the arm bridges and the base: it publishes ``/joint_states`` and ``/odom`` at
 ``--inputs-rate``. Every link is pressed all the time (all three links in contact).
@@ -89,8 +93,9 @@ moving average."""
 
 # -- simulated boards ---------------------------------------------------------------------------
 def _board_process(index: int, port: str, layout_file: str, rate: float, stop: Any,
-                   queue: Any, priority: int = 0) -> None:
-    """One board on its own pty, pressed with the coded force; report per frame sent:
+                   queue: Any, priority: int = 0, transport: str = "pty") -> None:
+    """One board on its own pty (or TCP server: ``transport`` socket, its URL written to
+    ``port``.url), pressed with the coded force; report per frame sent:
     (board time [ns], write end [ns, wall clock], press force [µN], cut off: 1 when the pty
     was full for the write timeout and the frame's tail was dropped, as a UART would). With
     ``priority`` > 0 under SCHED_FIFO: a board is hardware, which other load never delays."""
@@ -99,14 +104,20 @@ def _board_process(index: int, port: str, layout_file: str, rate: float, stop: A
 
     if priority > 0:
         set_fifo_priority(priority)
-    from skin_driver.sim_board import PtyEndpoint, SimBoard, press_pattern, run_boards
+    from skin_driver.sim_board import (
+        PtyEndpoint,
+        SimBoard,
+        TcpEndpoint,
+        press_pattern,
+        run_boards,
+    )
 
     layout = load_layout(layout_file)
-    board = SimBoard(0, layout, noise_counts=2.0, seed=index)
+    board = SimBoard(0, layout, noise_counts=2.0, seed=index, noise_bank=64)
     unit = press_pattern(layout, force=1.0, radius=PRESS_RADIUS, period=0.0)(0.0)
     sent: list[tuple[int, int, int, int]] = []
     last = [0.0, 0.0]
-    endpoints: list[PtyEndpoint] = []
+    endpoints: list[PtyEndpoint | TcpEndpoint] = []
     overflows = [0]
 
     def pattern(t: float) -> Any:
@@ -120,8 +131,14 @@ def _board_process(index: int, port: str, layout_file: str, rate: float, stop: A
                      int(total > overflows[0])))
         overflows[0] = total
 
-    def open_endpoint() -> PtyEndpoint:
-        endpoints.append(PtyEndpoint(port))
+    def open_endpoint() -> PtyEndpoint | TcpEndpoint:
+        if transport == "socket":
+            endpoints.append(TcpEndpoint())
+            url = Path(port + ".url")
+            url.with_suffix(".tmp").write_text(endpoints[-1].path)
+            url.with_suffix(".tmp").replace(url)
+        else:
+            endpoints.append(PtyEndpoint(port))
         return endpoints[-1]
 
     stats = run_boards(open_endpoint, [(board, pattern)], rate, stop, on_sent=on_sent)
@@ -313,7 +330,8 @@ def _composed_params(tmp: Path, layouts: list[Path], args: argparse.Namespace) -
 
     sections: dict[str, Any] = {
         f"skin_driver_{i}": {"ros__parameters": {
-            "port": str(tmp / f"port{i}"), "board_ids": [0], "layout_files": [str(layout)],
+            "port": _board_port(tmp, i, args.transport), "board_ids": [0],
+            "layout_files": [str(layout)],
             "taxel_publish_rate_hz": float(args.composed),
             "thread_priority": args.priority}}
         for i, layout in enumerate(layouts)
@@ -325,15 +343,21 @@ def _composed_params(tmp: Path, layouts: list[Path], args: argparse.Namespace) -
     return path
 
 
+def _board_port(tmp: Path, i: int, transport: str) -> str:
+    """What driver ``i`` opens: the board's pty link, or its ``socket://`` URL; waits up to
+    30 s for the board to create it."""
+    path = tmp / (f"port{i}.url" if transport == "socket" else f"port{i}")
+    deadline = time.monotonic() + 30.0
+    while not path.exists() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    return path.read_text() if transport == "socket" else str(path)
+
+
 def _start_nodes(tmp: Path, layouts: list[Path], args: argparse.Namespace,
                  ) -> dict[str, subprocess.Popen[bytes]]:
     bindir = Path(sys.executable).parent
     env = dict(os.environ, PHRI_EXECUTOR=args.executor)
     procs: dict[str, subprocess.Popen[bytes]] = {}
-    for i in range(len(layouts)):
-        deadline = time.monotonic() + 30.0
-        while not (tmp / f"port{i}").exists() and time.monotonic() < deadline:
-            time.sleep(0.01)
     if args.composed is not None:
         procs["skin_contact_node (drivers+estimation)"] = subprocess.Popen(
             [sys.executable, __file__, "--composed-probe", str(tmp / "composed"), "--drivers",
@@ -343,7 +367,8 @@ def _start_nodes(tmp: Path, layouts: list[Path], args: argparse.Namespace,
         for i, layout in enumerate(layouts):
             procs[f"skin_driver {i}"] = subprocess.Popen([
                 str(bindir / "skin_driver_node"), "--ros-args", "-r",
-                f"__node:=skin_driver_{i}", "-p", f"port:={tmp / f'port{i}'}",
+                f"__node:=skin_driver_{i}", "-p",
+                f"port:={_board_port(tmp, i, args.transport)}",
                 "-p", "board_ids:=[0]", "-p", f"layout_files:=['{layout}']",
                 "-p", f"thread_priority:={args.priority}",
             ], env=env)
@@ -675,7 +700,8 @@ def measure(args: argparse.Namespace, tmp: Path) -> None:
     stop, queue = ctx.Event(), ctx.Queue()
     layouts = _write_layouts(tmp, args.boards, args.taxels)
     boards = [ctx.Process(target=_board_process, args=(i, str(tmp / f"port{i}"), str(f),
-                                                       args.rate, stop, queue, args.priority))
+                                                       args.rate, stop, queue, args.priority,
+                                                       args.transport))
               for i, f in enumerate(layouts)]
     for b in boards:
         b.start()
@@ -753,11 +779,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--priority", type=int, default=0, choices=range(0, 100), metavar="0-99",
                    help="thread_priority of the skin drivers' and the controller's threads, "
                         "and SCHED_FIFO for the simulated boards (hardware); 0 = off")
+    p.add_argument("--transport", choices=("pty", "socket"), default="pty",
+                   help="how the simulated boards reach the drivers: a pty each (a USB serial "
+                        "board; 4 KB of buffer, less than a 10,000-taxel frame) or a TCP "
+                        "server each on localhost (an Ethernet board, socket:// URLs)")
     p.add_argument("--save", metavar="DIR", default=None,
                    help="keep the raw records (frames sent, probes) in DIR as .npz")
     args = p.parse_args(argv)
     isolate_ros_environment()
-    print(load_line(), f"; thread_priority {args.priority}" if args.priority else "")
+    print(load_line(), f"; thread_priority {args.priority}" if args.priority else "",
+          f"; boards on {args.transport}")
     tmp = Path(tempfile.mkdtemp(prefix="bench_chain_"))
     try:
         measure(args, tmp)

@@ -6,7 +6,8 @@ Library use (the simulator feeds its own forces)::
     data = board.frame(forces, t)                        # bytes of one frame (faults applied)
 
 Program use (``sim_skin_board``): creates a pty (prints its path, optionally keeps a stable
-symlink to it, as udev does for ``/dev/serial/by-id``) or opens ``--port URL``, and sends frames
+symlink to it, as udev does for ``/dev/serial/by-id``), serves TCP (``--listen``: a board on
+Ethernet, read at ``socket://HOST:PORT``) or opens ``--port URL``, and sends frames
 at ``--rate`` Hz with a scripted press pattern or a replayed ``.npy`` recording, optionally with
 injected faults: garbage bytes, bit flips, dropped frames and periodic disconnects.
 
@@ -24,6 +25,7 @@ import math
 import os
 import select
 import signal
+import socket
 import sys
 import threading
 import time
@@ -95,6 +97,10 @@ class SimBoard:
         drift_rate: common-mode zero drift of every taxel [N/s] (to exercise compensation).
         faults: fault injection.
         seed: random seed (same seed → same bytes).
+        noise_bank: 0: fresh noise every frame; K > 0: the noise of a frame is one of K frames
+            drawn at the start, circularly shifted by a random offset (the same σ, ≈ 10× less
+            CPU at 10,000 taxels: benchmarks whose boards stand in for hardware, which costs
+            the host nothing).
     """
 
     def __init__(
@@ -107,6 +113,7 @@ class SimBoard:
         drift_rate: float = 0.0,
         faults: Faults | None = None,
         seed: int = 0,
+        noise_bank: int = 0,
     ) -> None:
         if layout is None and size is None:
             raise ValueError("give a layout or a size")
@@ -125,6 +132,10 @@ class SimBoard:
         self.sequence = 0
         self._rng = np.random.default_rng(seed)
         self._inv_gain = np.where(self.gains > 0, 1.0 / np.maximum(self.gains, 1e-300), 0.0)
+        if noise_bank < 0:
+            raise ValueError(f"noise_bank must be ≥ 0 frames, got {noise_bank}")
+        self._noise_bank = (self._rng.normal(0.0, noise_counts, (noise_bank, n))
+                            if noise_bank and noise_counts > 0 else None)
 
     def counts(self, forces: FloatArray, t: float) -> NDArray[np.uint16]:
         """Raw counts for ``forces`` (N,) [N] at board time ``t`` [s]."""
@@ -136,7 +147,11 @@ class SimBoard:
         value = forces + self.drift_rate * t
         value *= self._inv_gain
         value += self.offsets
-        if self.noise_counts > 0:
+        if self._noise_bank is not None:
+            bank = self._noise_bank
+            shift = int(self._rng.integers(self.size))
+            value += np.roll(bank[self._rng.integers(len(bank))], shift)
+        elif self.noise_counts > 0:
             value += self._rng.normal(0.0, self.noise_counts, self.size)
         if not np.isfinite(value).all():
             value = np.nan_to_num(value)
@@ -274,23 +289,16 @@ class PtyEndpoint:
             tmp.replace(self.link)
 
     def write(self, data: bytes) -> None:
-        view = memoryview(data)
-        deadline = time.monotonic() + self.write_timeout
-        while view:
-            try:
-                n = os.write(self._master, view)
-                view = view[n:]
-                continue
-            except BlockingIOError:
-                pass
-            except OSError as err:
-                if err.errno not in (errno.EAGAIN, errno.EIO):
-                    raise
-            left = deadline - time.monotonic()
-            if left <= 0:
-                self.overflows += 1
-                return
-            select.select([], [self._master], [], left)
+        if not _write_within(self._send, self._master, data, self.write_timeout):
+            self.overflows += 1
+
+    def _send(self, view: memoryview) -> int:
+        try:
+            return os.write(self._master, view)
+        except OSError as err:  # EIO: nobody has the pty open yet; wait as for a full one
+            if err.errno == errno.EIO:
+                raise BlockingIOError(errno.EAGAIN, "no reader") from err
+            raise
 
     def close(self) -> None:
         for fd in (self._master, self._slave):
@@ -300,6 +308,88 @@ class PtyEndpoint:
             with contextlib.suppress(OSError):
                 if os.readlink(self.link) == self.path:
                     self.link.unlink()
+
+
+class TcpEndpoint:
+    """The board as a TCP server on ``host`` (a skin board on Ethernet); the driver opens
+    :attr:`path`, ``socket://HOST:PORT``. One driver at a time: a new connection replaces the
+    old one. As on the pty, writes never block longer than ``write_timeout`` and what does not
+    fit is dropped (:attr:`overflows`); frames sent while no driver is connected are not heard
+    (:attr:`unheard`). ``send_buffer`` [bytes] asks the kernel for a send buffer of several
+    frames (it caps the request at ``net.core.wmem_max``): a pty holds 4 KB, less than one
+    10,000-taxel frame, so a board on a pty waits for the reader within every frame."""
+
+    def __init__(self, host: str = "127.0.0.1", port: int = 0, write_timeout: float = 0.01,
+                 send_buffer: int = 1 << 22) -> None:
+        self._server = socket.create_server((host, port))
+        self._server.setblocking(False)
+        bound_host, bound_port = self._server.getsockname()[:2]
+        self.path = f"socket://{bound_host}:{bound_port}"
+        self.write_timeout = write_timeout
+        self.send_buffer = send_buffer
+        self.overflows = 0
+        self.unheard = 0
+        self._conn: socket.socket | None = None
+
+    @property
+    def connected(self) -> bool:
+        """A driver is connected (accepts a waiting connection first)."""
+        self._accept()
+        return self._conn is not None
+
+    def _accept(self) -> None:
+        try:
+            conn, _ = self._server.accept()
+        except (BlockingIOError, OSError):
+            return
+        conn.setblocking(False)
+        conn.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, self.send_buffer)
+        conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self.drop_connection()
+        self._conn = conn
+
+    def write(self, data: bytes) -> None:
+        self._accept()
+        conn = self._conn
+        if conn is None:
+            self.unheard += 1
+            return
+        try:
+            if not _write_within(conn.send, conn.fileno(), data, self.write_timeout):
+                self.overflows += 1
+        except (BrokenPipeError, ConnectionResetError):  # the driver went away
+            self.drop_connection()
+
+    def drop_connection(self) -> None:
+        """Close the driver's connection (as a board's link going down); the server stays."""
+        if self._conn is not None:
+            with contextlib.suppress(OSError):
+                self._conn.close()
+            self._conn = None
+
+    def close(self) -> None:
+        self.drop_connection()
+        with contextlib.suppress(OSError):
+            self._server.close()
+
+
+def _write_within(send: Callable[[memoryview], int], fd: int, data: bytes,
+                  timeout: float) -> bool:
+    """Write ``data`` through the non-blocking ``send`` (bytes taken per call) on ``fd`` within
+    ``timeout`` [s]; False when the rest did not fit in time and was dropped."""
+    view = memoryview(data)
+    deadline = time.monotonic() + timeout
+    while view:
+        try:
+            view = view[send(view):]
+            continue
+        except BlockingIOError:
+            pass
+        left = deadline - time.monotonic()
+        if left <= 0:
+            return False
+        select.select([], [fd], [], left)
+    return True
 
 
 class UrlEndpoint:
@@ -402,6 +492,10 @@ def _parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         description="Simulated phri skin board(s): protocol v1 frames into a pty or a URL.",
     )
     p.add_argument("--port", help="pyserial URL to write to (default: create a pty)")
+    p.add_argument("--listen", metavar="[HOST:]PORT",
+                   help="serve the frames as a TCP server (an Ethernet board; the driver opens "
+                        "socket://HOST:PORT; HOST defaults to 127.0.0.1, PORT 0 picks a free "
+                        "one) instead of a pty")
     p.add_argument("--link", help="keep a symlink at this path pointing to the pty")
     p.add_argument("--layout", action="append", default=[],
                    help="layout file, one per board (board ids 0, 1, …)")
@@ -465,6 +559,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     def open_endpoint() -> Endpoint:
         if args.port:
             return UrlEndpoint(args.port)
+        if args.listen:
+            host, _, port = args.listen.rpartition(":")
+            return TcpEndpoint(host or "127.0.0.1", int(port))
         return PtyEndpoint(args.link)
 
     def announce(endpoint: Endpoint) -> None:

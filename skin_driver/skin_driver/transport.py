@@ -7,12 +7,14 @@ closes, the socket drops) it closes the port and retries with exponential back-o
 device is back or :meth:`SerialReader.stop` is called. No exception escapes the thread: a failing
 ``on_data`` is reported through ``on_error`` and reading goes on.
 
-On a POSIX serial device (a tty, a pty) the thread reads the file descriptor itself: one
-``select`` and one ``os.read`` of everything buffered per wake-up. pyserial's ``read`` with
-``in_waiting`` costs a ``select``, a one-byte read, an ``ioctl`` and a second read for the same
-data — three extra system calls, each a GIL release and re-acquisition that other threads of
-the process (the composed ``skin_contact_node`` runs three readers) then contend for. Other
-URLs (``socket://``, ``loop://``) go through pyserial's ``read``.
+On a POSIX serial device (a tty, a pty) and on ``socket://`` the thread reads the file
+descriptor itself: one ``select`` and one ``os.read`` of everything buffered per wake-up.
+pyserial's ``read`` with ``in_waiting`` costs a ``select``, a one-byte read, an ``ioctl`` and a
+second read for the same data — three extra system calls, each a GIL release and
+re-acquisition that other threads of the process (the composed ``skin_contact_node`` runs three
+readers) then contend for; on a socket ``in_waiting`` is only 0 or 1, so pyserial's ``read``
+took one byte per call. Other URLs (``loop://``, ``rfc2217://``) go through pyserial's
+``read``.
 
 Several readers in one process (the composed ``skin_contact_node``) can share a
 :class:`PortPoller`: one thread then ``select``s over every open POSIX port and hands each
@@ -33,6 +35,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import serial
+from serial.urlhandler import protocol_socket
 
 from phri_common.periodic import PRIORITY_RANGE, fifo_refusal, set_fifo_priority
 
@@ -360,12 +363,15 @@ class SerialReader:
 
 
 def _posix_fd(port: Any) -> int | None:
-    """The open, non-blocking file descriptor of a POSIX pyserial port; None for anything else
-    (sockets, loop://, test doubles), which are read through pyserial."""
+    """The open, non-blocking file descriptor of a POSIX pyserial port or of a ``socket://``
+    port; None for anything else (loop://, test doubles), which is read through pyserial."""
     posix = getattr(serial, "serialposix", None)
-    if posix is None or not isinstance(port, posix.Serial):
+    if posix is not None and isinstance(port, posix.Serial):
+        fd = getattr(port, "fd", None)
+    elif isinstance(port, protocol_socket.Serial):
+        fd = port.fileno() if port.is_open else None
+    else:
         return None
-    fd = getattr(port, "fd", None)
     if not isinstance(fd, int) or os.get_blocking(fd):
         return None
     return fd

@@ -4,6 +4,7 @@ Waits are bounded by ``WAIT_S`` only so that a stalled machine fails instead of 
 
 from __future__ import annotations
 
+import itertools
 import signal
 import subprocess
 import sys
@@ -58,6 +59,30 @@ def test_board_and_driver_calibration_agree() -> None:
     assert out is not None
     # Count resolution 0.7 mN, noise σ 1 count averaged over 10 frames.
     np.testing.assert_allclose(out, forces, atol=2e-3)
+
+
+def test_a_noise_bank_keeps_the_noise_and_never_repeats_a_frame() -> None:
+    """``noise_bank``: the counts' noise keeps its σ and zero mean, differs between
+    consecutive frames (a repeated frame would look stuck to the driver), and the same seed
+    gives the same bytes."""
+    layout = rectangular_patch("p", "l", 50, 40)
+    zero = np.zeros(layout.size)
+
+    offsets = SimBoard(0, layout).offsets
+
+    def frames(seed: int) -> np.ndarray:
+        board = SimBoard(0, layout, noise_counts=2.0, seed=seed, noise_bank=8)
+        return np.array([board.counts(zero, k / 500) for k in range(200)], dtype=float)
+
+    counts = frames(1)
+    noise = counts - offsets
+    assert abs(noise.mean()) < 0.05
+    assert noise.std() == pytest.approx(np.sqrt(2.0**2 + 1 / 12), rel=0.05)  # σ and rounding
+    assert all((a != b).any() for a, b in itertools.pairwise(counts))
+    np.testing.assert_array_equal(counts, frames(1))
+    assert (counts != frames(2)).any()
+    with pytest.raises(ValueError, match="noise_bank"):
+        SimBoard(0, layout, noise_bank=-1)
 
 
 def test_press_pattern_total_force_and_replay() -> None:
@@ -156,3 +181,30 @@ def test_counts_are_offset_plus_force_over_gain_plus_noise_rounded_and_clipped()
         expected = np.clip(np.rint(value), 0, 65535).astype(np.uint16)
         np.testing.assert_array_equal(board.counts(f, t), expected)
         assert np.array_equal(f[:5], forces[k, :5])  # the caller's array is not modified
+
+
+def test_cli_serves_frames_over_tcp_with_listen() -> None:
+    """``sim_skin_board --listen 0`` (an Ethernet board) prints the ``socket://`` URL it
+    serves; a driver's reader on that URL receives its frames whole."""
+    exe = Path(sys.executable).with_name("sim_skin_board")
+    proc = subprocess.Popen([str(exe), "--listen", "127.0.0.1:0", "--taxels", "10000",
+                             "--rate", "100"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    parser = FrameParser()
+    reader = None
+    try:
+        assert proc.stdout is not None
+        line = proc.stdout.readline()
+        url = line.split(" on ")[1].split()[0]
+        assert url.startswith("socket://127.0.0.1:"), line
+        reader = SerialReader(url, lambda d, _: parser.feed(d), backoff_initial=0.02,
+                              backoff_max=0.05)
+        reader.start()
+        assert _wait(lambda: parser.stats.frames > 20)
+        assert parser.stats.resyncs == 0 and parser.stats.frame_crc_errors == 0
+    finally:
+        if reader is not None:
+            reader.stop()
+        proc.send_signal(signal.SIGTERM)
+        proc.communicate(timeout=WAIT_S)
+    assert proc.returncode == 0

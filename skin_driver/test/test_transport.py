@@ -12,7 +12,7 @@ import threading
 import time
 from typing import Any
 
-from skin_driver.sim_board import PtyEndpoint
+from skin_driver.sim_board import PtyEndpoint, TcpEndpoint
 from skin_driver.transport import SerialReader
 
 WAIT_S = 60.0
@@ -67,6 +67,62 @@ def test_a_buffered_frame_comes_out_in_one_read() -> None:
         release.release()
         reader.stop()
         os.close(probe)
+        endpoint.close()
+
+
+def test_a_socket_port_is_read_in_whole_chunks_not_byte_by_byte() -> None:
+    """``socket://`` (a skin board on Ethernet): 20 frames of 10,000 taxels (20,020 bytes
+    each) arrive whole and in order, in a few reads per frame. pyserial's socket ``read`` with
+    ``in_waiting`` (which is 0 or 1 for a socket) took one byte per call: 400,400 calls, each a
+    ``select`` and a ``recv``, far slower than the board sends."""
+    endpoint = TcpEndpoint(write_timeout=WAIT_S)  # the test's writes are never dropped
+    chunks: list[bytes] = []
+    reader = SerialReader(endpoint.path, lambda chunk, _t: chunks.append(chunk))
+    reader.start()
+    frames = [os.urandom(20_020) for _ in range(20)]
+    try:
+        assert _wait(lambda: reader.stats.connected and endpoint.connected)
+        for frame in frames:
+            endpoint.write(frame)
+        assert _wait(lambda: reader.stats.bytes_read == 20 * 20_020), reader.stats
+        assert b"".join(chunks) == b"".join(frames)
+        assert len(chunks) <= 20 * 4, len(chunks)
+    finally:
+        reader.stop()
+        endpoint.close()
+
+
+def test_a_shared_poller_serves_a_socket_port_and_reports_its_loss() -> None:
+    """The composed node's shared poller reads a ``socket://`` port too (whole chunks on the
+    poller's thread); the board closing the connection is a lost port, reported and redialled."""
+    from skin_driver.transport import PortPoller
+
+    poller = PortPoller("test-socket-poller")
+    endpoint = TcpEndpoint(write_timeout=WAIT_S)
+    chunks: list[bytes] = []
+    threads: set[str] = set()
+
+    def on_data(chunk: bytes, _t: int) -> None:
+        threads.add(threading.current_thread().name)
+        chunks.append(chunk)
+
+    reader = SerialReader(endpoint.path, on_data, poller=poller, backoff_initial=0.05,
+                          backoff_max=0.1)
+    reader.start()
+    try:
+        assert _wait(lambda: reader.stats.connects == 1 and poller.ports == 1
+                     and endpoint.connected)
+        frame = os.urandom(20_020)
+        endpoint.write(frame)
+        assert _wait(lambda: reader.stats.bytes_read == 20_020)
+        assert b"".join(chunks) == frame and len(chunks) <= 4 and threads == {
+            "test-socket-poller"}
+        endpoint.drop_connection()
+        assert _wait(lambda: reader.stats.disconnects == 1), reader.stats
+        assert "lost" in reader.stats.last_error
+        assert _wait(lambda: reader.stats.connects == 2 and endpoint.connected)
+    finally:
+        reader.stop()
         endpoint.close()
 
 
