@@ -108,7 +108,7 @@ def test_the_series_built_while_recording_are_those_read_from_the_recording(
 
     sink = BackgroundRecordingSink(str(tmp_path / "rec"), skin_rate_hz=10.0, builder=RunBuilder)
     _record(sink, _stream())
-    built, read = sink.built, read_run(tmp_path / "rec")
+    built, read = sink.take_built(), read_run(tmp_path / "rec")
     assert isinstance(built, RunData)
 
     def same(a: Any, b: Any) -> bool:
@@ -123,4 +123,45 @@ def test_the_series_built_while_recording_are_those_read_from_the_recording(
     assert len(built.odom.t) == 30 and len(built.joint_velocity.t) == 27
     plain = BackgroundRecordingSink(str(tmp_path / "none"))
     plain.close()
-    assert plain.built is None
+    assert plain.take_built() is None
+
+
+def test_the_panels_drawn_in_the_recording_process_are_those_drawn_from_the_recording(
+        tmp_path: Path) -> None:
+    """:class:`~phri_bringup.reports.plots.PanelsBuilder` as the builder: after ``close`` the
+    recording process draws the panels (``phri sim`` meanwhile computes its metrics); their
+    files and key numbers are those :func:`make_plots` draws from the recording it wrote."""
+    import functools
+    import json
+
+    from phri_bringup.reports.plots import PanelsBuilder, make_plots
+
+    drawn_dir, read_dir = tmp_path / "drawn", tmp_path / "read"
+    sink = BackgroundRecordingSink(str(tmp_path / "rec"), skin_rate_hz=10.0,
+                                   builder=functools.partial(PanelsBuilder, str(drawn_dir), None))
+    _record(sink, _stream())
+    files, numbers = sink.take_built()
+    read_files, read_numbers = make_plots(tmp_path / "rec", read_dir)
+    assert [f.name for f in files] == [f.name for f in read_files] and files
+    assert all(f.parent == drawn_dir and f.stat().st_size > 0 for f in files)
+    assert json.dumps(numbers, sort_keys=True) == json.dumps(read_numbers, sort_keys=True)
+
+
+def test_a_builder_that_fails_leaves_the_recording_intact(tmp_path: Path) -> None:
+    """A builder whose result raises (panels into a directory that cannot be made): ``close``
+    returns once the recording is complete, :meth:`take_built` gives None (``phri sim`` then
+    draws from the recording) and the recording holds every message."""
+    import functools
+
+    from phri_bringup.reports.plots import PanelsBuilder
+
+    (tmp_path / "file").write_text("")
+    sink = BackgroundRecordingSink(str(tmp_path / "rec"), skin_rate_hz=0.0,
+                                   builder=functools.partial(PanelsBuilder,
+                                                             str(tmp_path / "file" / "plots")))
+    stream = _stream()
+    _record(sink, stream)
+    assert sink.take_built() is None
+    recorded = _read(tmp_path / "rec")
+    for topic in ("/clock", "/joint_states", "/odom", SKIN):
+        assert sum(t == topic for t, _, _ in recorded) == sum(m[0] == topic for m in stream)

@@ -27,6 +27,7 @@ recording was closed either way).
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import signal
@@ -337,7 +338,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
     record_dir = None if args.no_record else Path(args.record or out / "recording")
     video_path = out / f"{scenario_file(name)}.mp4" if record_dir is not None and args.video \
         else None
-    sinks = _open_sinks(args, out, record_dir)
+    sinks = _open_sinks(args, out, record_dir, name)
     video = _start_video(video_path, sinks)
     _enter_domain(args)
     baseline = _start_baseline(args, name)
@@ -375,7 +376,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
     metrics["seed"] = args.seed
     _following(args, name, metrics, runs, out, baseline)
     metrics["bringup"] = {"run_wall_time": run_wall,
-                          **_plots(args, name, record_dir, out, _plot_series(sinks))}
+                          **_plots(args, name, record_dir, out, _drawn_panels(sinks))}
     _finish_video(video)
     (out / "metrics.json").write_text(json.dumps(metrics, indent=2, allow_nan=True) + "\n",
                                       encoding="utf-8")
@@ -384,23 +385,24 @@ def cmd_sim(args: argparse.Namespace) -> int:
     return 0
 
 
-def _plot_series(sinks: list[Any]) -> Any:
-    """The panels' series the recording process built while recording (None: read the
-    recording)."""
-    return next((s.built for s in sinks if getattr(s, "built", None) is not None), None)
+def _drawn_panels(sinks: list[Any]) -> Any:
+    """The panels the recording process drew once the recording was closed, as
+    :func:`~phri_bringup.reports.plots.make_plots` returns them (None: draw them here)."""
+    return next((drawn for s in sinks if hasattr(s, "take_built")
+                 for drawn in (s.take_built(),) if drawn is not None), None)
 
 
 def _plots(args: argparse.Namespace, name: str, record_dir: Path | None, out: Path,
-           series: Any = None) -> dict[str, Any]:
-    """The figure panels of the recording (unless ``--no-plots`` or ``--no-record``), from
-    ``series`` built while it was recorded if given; returns the panels' key numbers as
-    ``{"plots": …}``."""
+           drawn: Any = None) -> dict[str, Any]:
+    """The figure panels of the recording (unless ``--no-plots`` or ``--no-record``): those
+    ``drawn`` by the recording process if given, else drawn here from the recording; returns
+    the panels' key numbers as ``{"plots": …}``."""
     summary: dict[str, Any] = {}
     if record_dir is not None and not args.no_plots:
         from phri_bringup.reports.plots import make_plots
 
-        files, numbers = make_plots(record_dir if series is None else series, out / "plots",
-                                    scenario=name)
+        files, numbers = drawn if drawn is not None else make_plots(
+            record_dir, out / "plots", scenario=name)
         summary["plots"] = numbers
         _log(f"plots: {len(files)} panels in {out / 'plots'}")
     return summary
@@ -448,9 +450,11 @@ def _run_options(args: argparse.Namespace) -> Any:
                       shove=args.shove, plant=args.plant)
 
 
-def _open_sinks(args: argparse.Namespace, out: Path, record_dir: Path | None) -> list[Any]:
+def _open_sinks(args: argparse.Namespace, out: Path, record_dir: Path | None,
+                scenario: str) -> list[Any]:
     """The live view (``--foxglove``, first: a busy port stops the command before any file is
-    written) and the recording sink; ValueError naming the option when one cannot open."""
+    written) and the recording sink, whose process also draws the panels of ``scenario`` once
+    the recording is closed; ValueError naming the option when one cannot open."""
     from phri_bringup.observer.recording_process import BackgroundRecordingSink
 
     sinks: list[Any] = []
@@ -462,11 +466,12 @@ def _open_sinks(args: argparse.Namespace, out: Path, record_dir: Path | None) ->
     try:
         out.mkdir(parents=True, exist_ok=True)
         if record_dir is not None:
-            from phri_bringup.reports.plots import RunBuilder
+            from phri_bringup.reports.plots import PanelsBuilder
 
+            panels = functools.partial(PanelsBuilder, str(out / "plots"), scenario)
             sinks.append(BackgroundRecordingSink(
                 str(record_dir), skin_rate_hz=args.skin_record_rate,
-                builder=None if args.no_plots else RunBuilder))
+                builder=None if args.no_plots else panels))
     except (OSError, ValueError) as err:
         for sink in sinks:
             sink.close()

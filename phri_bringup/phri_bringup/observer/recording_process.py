@@ -22,6 +22,7 @@ import multiprocessing
 import os
 import queue
 import signal
+import traceback
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
@@ -101,7 +102,14 @@ class BackgroundRecordingSink:
     """A :class:`~phri_bringup.observer.node.RecordingSink` in a process of its own (module
     docstring); the same arguments. ValueError (before the process starts) for a recording
     directory that holds other files; :meth:`close` waits until the recording is complete and
-    raises RuntimeError if the process failed."""
+    raises RuntimeError if the process failed.
+
+    ``builder``: a picklable factory of an object with ``add(topic, type_name, raw, t [s])``
+    and ``result()`` (e.g. :class:`phri_bringup.reports.plots.RunBuilder`, the panels' series,
+    or :class:`~phri_bringup.reports.plots.PanelsBuilder`, which also draws them). Every
+    recorded message is added to one in the recording process; once the recording is closed,
+    its ``result()`` is computed there, while the caller goes on, and :meth:`take_built`
+    returns it."""
 
     def __init__(self, directory: str, skin_rate_hz: float = 20.0, tf_rate_hz: float = 50.0,
                  builder: Callable[[], Any] | None = None) -> None:
@@ -122,12 +130,8 @@ class BackgroundRecordingSink:
         if child is not None:
             child.close()
         self.closed = False
-        self.built: Any = None
-        """With a ``builder`` (a picklable factory of an object with ``add(topic, type_name,
-        raw, t [s])`` and ``result()``, e.g. :class:`phri_bringup.reports.plots.RunBuilder`):
-        after :meth:`close`, the ``result()`` of every recorded message added to a fresh one in
-        the recording process (the panels' series, built while recording: the panels need not
-        read the recording back); None if building failed."""
+        self._built: Any = None
+        self._joined = False
 
     def on_message(self, topic: str, type_name: str, raw: bytes, stamp_ns: int) -> None:
         if self.closed or not self._skin.keep(topic, stamp_ns):
@@ -142,9 +146,27 @@ class BackgroundRecordingSink:
         self._batches.end()
         self._batches.queue.close()
         self._batches.queue.join_thread()
+        recorded = False
         if self._series is not None:
             with contextlib.suppress(EOFError):  # the process failed: reported below
-                self.built = self._series.recv()
+                recorded = bool(self._series.recv())
+        if not recorded:  # no builder, or the recording failed
+            self._join()
+
+    def take_built(self) -> Any:
+        """After :meth:`close`: the builder's result, waiting for it (None without a builder
+        or if building failed: the recording does not depend on it)."""
+        if self._series is not None and not self._joined:
+            with contextlib.suppress(EOFError):
+                self._built = self._series.recv()
+            self._join()
+        return self._built
+
+    def _join(self) -> None:
+        """Wait for the process to end; RuntimeError if it failed."""
+        if self._joined:
+            return
+        self._joined = True
         self._process.join()
         if self._process.exitcode != 0:
             raise RuntimeError(f"the recording process for {self.directory} failed (exit code "
@@ -174,8 +196,9 @@ def record_from_queue(source: Any, directory: str, skin_rate_hz: float, tf_rate_
 
 
 class _SeriesTap:
-    """A RecordingSink that also adds every message to ``builder`` and sends its result
-    through ``conn`` when it closes."""
+    """A RecordingSink that also adds every message to ``builder``; when it closes it sends
+    through ``conn`` whether the recording was closed intact, then the builder's result (None
+    if building failed)."""
 
     def __init__(self, sink: Any, conn: Any, builder: Any) -> None:
         self.sink, self.conn, self.builder = sink, conn, builder
@@ -189,8 +212,21 @@ class _SeriesTap:
                 self.builder = None
 
     def close(self) -> None:
+        recorded = False
         try:
             self.sink.close()
+            recorded = True
         finally:
-            self.conn.send(None if self.builder is None else self.builder.result())
+            self.conn.send(recorded)  # the caller goes on once the recording is complete
+            if recorded:
+                self.conn.send(self._result())
             self.conn.close()
+
+    def _result(self) -> Any:
+        if self.builder is None:
+            return None
+        try:
+            return self.builder.result()
+        except Exception:  # the caller draws from the recording instead
+            traceback.print_exc()
+            return None

@@ -131,6 +131,29 @@ class RunBuilder:
         return data
 
 
+class PanelsBuilder:
+    """A :class:`RunBuilder` whose :meth:`result` also draws the panels (:func:`make_plots`)
+    into ``out_dir``. ``phri sim`` hands it to the recording process, which then draws them
+    while the run's metrics and following plot are computed (docs/benchmarks.md, "Main
+    command")."""
+
+    def __init__(self, out_dir: str, scenario: str | None = None) -> None:
+        self.series = RunBuilder()
+        self.out_dir = out_dir
+        self.scenario = scenario
+        warm = figure(1, "warm-up")[0]  # matplotlib's import and fonts now, during the run
+        warm.canvas.draw()
+        _close(warm)
+
+    def add(self, topic: str, type_name: str, raw: bytes, t: float) -> None:
+        """As :meth:`RunBuilder.add`."""
+        self.series.add(topic, type_name, raw, t)
+
+    def result(self) -> tuple[list[Path], dict[str, Any]]:
+        """The panels' files and key numbers, as :func:`make_plots` returns them."""
+        return make_plots(self.series.result(), self.out_dir, scenario=self.scenario)
+
+
 def read_run(path: str | Path) -> RunData:
     """Read a recording (run directory, recording directory or ``.mcap``) with rosbags."""
     from rosbags.highlevel import AnyReader
@@ -299,12 +322,16 @@ def figure(rows: int, title: str, row_height: float = 2.4) -> tuple[Any, Any]:
 
 
 def _save(fig: Any, path: Path) -> Path:
-    import matplotlib.pyplot as plt
-
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _close(fig)
     return path
+
+
+def _close(fig: Any) -> None:
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
 
 
 def make_plots(recording: str | Path | RunData, out_dir: str | Path,
