@@ -1,8 +1,9 @@
 """Benchmark: the whole 500 Hz chain, end to end, each node in its own process as deployed.
 
 Simulated boards (one process and one pty per board; ``--transport socket``: a TCP server per
-board on localhost, as boards on Ethernet, since a pty holds 4 KB and a 10,000-taxel frame is
-20 KB, so a board on a pty waits for the reader within every frame; the boards draw their noise
+board on localhost, as boards on Ethernet, since a pty holds about 20 KB, one 10,000-taxel
+frame, read back 4,095 bytes a read, so a board on a pty waits for the reader within almost
+every frame; the boards draw their noise
 from a bank of 64 frames so that, standing in for hardware, they load the host less) →
 ``skin_driver`` nodes (one per port) →
 ``contact_estimation`` → ``wholebody_controller`` at ``--controller-rate``. This process stands
@@ -781,7 +782,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                         "and SCHED_FIFO for the simulated boards (hardware); 0 = off")
     p.add_argument("--transport", choices=("pty", "socket"), default="pty",
                    help="how the simulated boards reach the drivers: a pty each (a USB serial "
-                        "board; 4 KB of buffer, less than a 10,000-taxel frame) or a TCP "
+                        "board; ≈ 20 KB of buffer, one 10,000-taxel frame) or a TCP "
                         "server each on localhost (an Ethernet board, socket:// URLs)")
     p.add_argument("--save", metavar="DIR", default=None,
                    help="keep the raw records (frames sent, probes) in DIR as .npz")

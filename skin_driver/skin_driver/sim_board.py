@@ -316,8 +316,9 @@ class TcpEndpoint:
     old one. As on the pty, writes never block longer than ``write_timeout`` and what does not
     fit is dropped (:attr:`overflows`); frames sent while no driver is connected are not heard
     (:attr:`unheard`). ``send_buffer`` [bytes] asks the kernel for a send buffer of several
-    frames (it caps the request at ``net.core.wmem_max``): a pty holds 4 KB, less than one
-    10,000-taxel frame, so a board on a pty waits for the reader within every frame."""
+    frames (it caps the request at ``net.core.wmem_max``): a pty holds about 20 KB, one
+    10,000-taxel frame, and hands it to the reader 4,095 bytes a read, so a board on a pty
+    waits for the reader within almost every frame."""
 
     def __init__(self, host: str = "127.0.0.1", port: int = 0, write_timeout: float = 0.01,
                  send_buffer: int = 1 << 22) -> None:
