@@ -165,3 +165,23 @@ def test_a_builder_that_fails_leaves_the_recording_intact(tmp_path: Path) -> Non
     recorded = _read(tmp_path / "rec")
     for topic in ("/clock", "/joint_states", "/odom", SKIN):
         assert sum(t == topic for t, _, _ in recorded) == sum(m[0] == topic for m in stream)
+
+
+def test_a_discarded_build_draws_nothing_and_ends_the_process(tmp_path: Path) -> None:
+    """A stopped run: after ``close``, :meth:`discard_built` ends the recording process without
+    drawing (no panel is written), and the recording is complete."""
+    import functools
+
+    from phri_bringup.reports.plots import PanelsBuilder
+
+    sink = BackgroundRecordingSink(str(tmp_path / "rec"), skin_rate_hz=10.0,
+                                   builder=functools.partial(PanelsBuilder,
+                                                             str(tmp_path / "plots")))
+    stream = _stream()
+    _record(sink, stream)
+    sink.discard_built()
+    assert not sink._process.is_alive() and sink._process.exitcode == 0
+    assert not (tmp_path / "plots").exists()
+    assert sink.take_built() is None
+    assert sum(t == "/odom" for t, _, _ in _read(tmp_path / "rec")) == sum(
+        m[0] == "/odom" for m in stream)

@@ -354,6 +354,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
                              inspect=runs.append, vary=vary)
     except Exception as err:
         _log(f"run failed: {type(err).__name__}: {err}")
+        _panels(sinks, draw=False)
         _cancel(baseline)
         _cancel(video)
         return 2 if isinstance(err, ValueError) else 1
@@ -365,6 +366,7 @@ def cmd_sim(args: argparse.Namespace) -> int:
     if record_dir is not None:
         _log(f"recording: {record_dir} (ros2 bag info / play {record_dir}; Foxglove/Lichtblick: "
              f"open {recording_file(record_dir)})")
+    _panels(sinks, draw=not result.interrupted)
     if result.interrupted:
         _log("stopped before the end: recording closed, no metrics, plots or video")
         _cancel(baseline)
@@ -383,6 +385,17 @@ def cmd_sim(args: argparse.Namespace) -> int:
     total = time.perf_counter() - start
     _log(f"metrics: {out / 'metrics.json'}; total wall time {total:.0f} s")
     return 0
+
+
+def _panels(sinks: list[Any], draw: bool) -> None:
+    """Once the recording is closed: its process starts drawing the panels (``draw``; they are
+    taken by :func:`_drawn_panels`) or ends without them (a stopped or failed run)."""
+    for sink in sinks:
+        if hasattr(sink, "start_building"):
+            if draw:
+                sink.start_building()
+            else:
+                sink.discard_built()
 
 
 def _drawn_panels(sinks: list[Any]) -> Any:

@@ -107,9 +107,10 @@ class BackgroundRecordingSink:
     ``builder``: a picklable factory of an object with ``add(topic, type_name, raw, t [s])``
     and ``result()`` (e.g. :class:`phri_bringup.reports.plots.RunBuilder`, the panels' series,
     or :class:`~phri_bringup.reports.plots.PanelsBuilder`, which also draws them). Every
-    recorded message is added to one in the recording process; once the recording is closed,
-    its ``result()`` is computed there, while the caller goes on, and :meth:`take_built`
-    returns it."""
+    recorded message is added to one in the recording process. Once the recording is closed,
+    :meth:`start_building` has its ``result()`` computed there while the caller goes on,
+    :meth:`take_built` returns it, and :meth:`discard_built` ends the process without it (a run
+    that was stopped)."""
 
     def __init__(self, directory: str, skin_rate_hz: float = 20.0, tf_rate_hz: float = 50.0,
                  builder: Callable[[], Any] | None = None) -> None:
@@ -122,7 +123,7 @@ class BackgroundRecordingSink:
         self._series: Any = None
         child: Any = None
         if builder is not None:
-            self._series, child = ctx.Pipe(duplex=False)
+            self._series, child = ctx.Pipe()
         self._process = ctx.Process(target=record_from_queue, name="phri-recording",
                                     args=(self._batches.queue, directory, skin_rate_hz, tf_rate_hz,
                                           os.getpid(), child, builder), daemon=True)
@@ -131,6 +132,7 @@ class BackgroundRecordingSink:
             child.close()
         self.closed = False
         self._built: Any = None
+        self._requested = False
         self._joined = False
 
     def on_message(self, topic: str, type_name: str, raw: bytes, stamp_ns: int) -> None:
@@ -153,14 +155,32 @@ class BackgroundRecordingSink:
         if not recorded:  # no builder, or the recording failed
             self._join()
 
+    def start_building(self) -> None:
+        """After :meth:`close`: the recording process computes the builder's result now."""
+        self._answer(True)
+
     def take_built(self) -> Any:
         """After :meth:`close`: the builder's result, waiting for it (None without a builder
         or if building failed: the recording does not depend on it)."""
+        self._answer(True)
         if self._series is not None and not self._joined:
             with contextlib.suppress(EOFError):
                 self._built = self._series.recv()
             self._join()
         return self._built
+
+    def discard_built(self) -> None:
+        """After :meth:`close`: end the recording process without the builder's result."""
+        self._answer(False)
+        self._join()
+
+    def _answer(self, build: bool) -> None:
+        """Tell the recording process, once, whether to compute the builder's result."""
+        if self._series is None or self._requested or self._joined:
+            return
+        self._requested = True
+        with contextlib.suppress(OSError):  # the process is gone: _join reports it
+            self._series.send(build)
 
     def _join(self) -> None:
         """Wait for the process to end; RuntimeError if it failed."""
@@ -197,8 +217,8 @@ def record_from_queue(source: Any, directory: str, skin_rate_hz: float, tf_rate_
 
 class _SeriesTap:
     """A RecordingSink that also adds every message to ``builder``; when it closes it sends
-    through ``conn`` whether the recording was closed intact, then the builder's result (None
-    if building failed)."""
+    through ``conn`` whether the recording was closed intact, then, if the caller asks for it,
+    the builder's result (None if building failed)."""
 
     def __init__(self, sink: Any, conn: Any, builder: Any) -> None:
         self.sink, self.conn, self.builder = sink, conn, builder
@@ -218,9 +238,16 @@ class _SeriesTap:
             recorded = True
         finally:
             self.conn.send(recorded)  # the caller goes on once the recording is complete
-            if recorded:
+            if recorded and self._asked():
                 self.conn.send(self._result())
             self.conn.close()
+
+    def _asked(self) -> bool:
+        """Whether the caller wants the builder's result (no: a stopped run, or it is gone)."""
+        try:
+            return bool(self.conn.recv())
+        except EOFError:
+            return False
 
     def _result(self) -> Any:
         if self.builder is None:
