@@ -62,12 +62,13 @@ def test_default_waltz_deviates_from_the_paper_only_where_documented() -> None:
     # acceleration_limits: the default waltz commands within the robot's rated accelerations,
     # the paper's set leaves them free (docs/wholebody_controller.md, Parameters).
     assert changed == {"k_eta", "q_dance_range", "lead_moment", "acceleration_limits",
+                       "turn_force_limit",
                        *(f"{link}.{g}" for link in links for g in ("inertia", "damping"))}
     doc = (Path(__file__).resolve().parents[2] / "docs" / "wholebody_controller.md").read_text(
         encoding="utf-8")
     section = doc.split("## Following a turning partner", 1)[1].split("\n## ", 1)[0]
-    for key in ("k_eta", "q_dance_range", "lead_moment", "acceleration_limits", "inertia",
-                "damping"):
+    for key in ("k_eta", "q_dance_range", "lead_moment", "acceleration_limits",
+                "turn_force_limit", "inertia", "damping"):
         assert f"`{key}`" in section, key
     assert params.load(config_file("sliding"))[CONTROLLER]["region_margin"] == 0.01
 

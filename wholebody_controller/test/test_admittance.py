@@ -9,7 +9,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from wholebody_controller.admittance import admittance_step, dead_zone, discretise, transition
+from wholebody_controller.admittance import (
+    admittance_step,
+    dead_zone,
+    discretise,
+    transition,
+    turn_gate,
+)
 from wholebody_controller.config import CONTACT_TRACKING, WALTZ, WHOLE_BODY, diag6
 
 PAPER_SETS = {
@@ -123,3 +129,33 @@ def test_dead_zone_is_a_continuous_shrink_by_at_most_its_band(
         assert shrunk <= size + 1e-12 and float(w[part] @ out[part]) >= -1e-12
         if size <= band:
             assert shrunk == 0.0
+
+
+def test_turn_gate_keeps_the_torque_up_to_its_force_and_fades_it_to_nothing_at_1_5_times() -> None:
+    """(T1) on analytic cases with F_t = 20 N: the torque is whole at a 20 N contact, half at
+    25 N, nothing from 30 N on; the force part is never touched; F_t = 0 changes nothing."""
+    w = (1.0, -2.0, 0.5, 0.2, -0.4, 0.6)
+    assert turn_gate(w, 20.0, 20.0) == w
+    assert turn_gate(w, 25.0, 20.0) == pytest.approx((1.0, -2.0, 0.5, 0.1, -0.2, 0.3))
+    assert turn_gate(w, 30.0, 20.0) == (1.0, -2.0, 0.5, 0.0, -0.0, 0.0)
+    assert turn_gate(w, 250.0, 20.0)[3:] == (0.0, -0.0, 0.0)
+    assert turn_gate(w, 250.0, 0.0) == w
+
+
+@settings(max_examples=200)
+@given(st.lists(st.floats(-50.0, 50.0), min_size=6, max_size=6),
+       st.floats(0.0, 500.0), st.floats(0.0, 100.0), st.floats(0.0, 100.0))
+def test_turn_gate_never_grows_or_turns_the_torque_and_fades_with_force(
+        wrench: list[float], force: float, limit: float, more: float) -> None:
+    """(T1) on random wrenches: the force part unchanged, the torque part scaled by one factor
+    in [0, 1] that does not grow with a larger contact force."""
+    out = np.array(turn_gate(tuple(wrench), force, limit))
+    w = np.array(wrench)
+    assert np.array_equal(out[:3], w[:3])
+    size = np.linalg.norm(w[3:])
+    if size > 0.0:
+        gain = float(np.linalg.norm(out[3:])) / size
+        assert 0.0 <= gain <= 1.0 + 1e-12
+        assert np.allclose(out[3:], gain * w[3:])
+        later = np.linalg.norm(np.array(turn_gate(tuple(wrench), force + more, limit))[3:])
+        assert later <= gain * size + 1e-9

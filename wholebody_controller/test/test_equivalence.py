@@ -94,6 +94,7 @@ def scenarios(draw: st.DrawFn) -> tuple[ControllerConfig, list[dict[str, Contact
         k_eta=draw(st.sampled_from([0.0, 200.0])),
         force_deadband=draw(st.sampled_from([0.0, 0.5, 3.0])),
         torque_deadband=draw(st.sampled_from([0.0, 0.01, 0.2])),
+        turn_force_limit=draw(st.sampled_from([0.0, 2.0, 20.0])),
         b=draw(st.sampled_from([4.0, 40.0])),
         rate_hz=draw(st.sampled_from([100.0, 500.0])),
         joint_ranges=dance_ranges(kin.joint_names[3:], list(Q0[3:]), 0.1)

@@ -54,16 +54,24 @@ def ref_build_qp(jacobian: Array, target: Array, weights: list[float], epsilon: 
 
 
 class RefAdmittance:
-    """s⁺ = Φ s + Γ w' with full matrices, w' the wrench through the dead zone (D1)."""
+    """s⁺ = Φ s + Γ w' with full matrices, w' the wrench with its torque gated by the contact
+    force (T1), then through the dead zone (D1)."""
 
-    def __init__(self, config: LinkTaskConfig, dt: float, bands: tuple[float, float]) -> None:
+    def __init__(self, config: LinkTaskConfig, dt: float, bands: tuple[float, float],
+                 turn_limit: float = 0.0) -> None:
         g = config.admittance
         self.phi, self.gamma = discretise(diag6(g.inertia), diag6(g.damping),
                                           diag6(g.stiffness), dt)
         self.state = np.zeros(12)
         self.bands = bands
+        self.turn_limit = turn_limit
 
-    def step(self, wrench: Array) -> None:
+    def step(self, wrench: Array, force: float = 0.0) -> None:
+        """``force``: ‖f‖ of the contact [N] (0 untouched)."""
+        limit = self.turn_limit
+        if limit > 0.0 and force > limit:
+            gate = float(np.clip((1.5 * limit - force) / (0.5 * limit), 0.0, 1.0))
+            wrench = np.concatenate([wrench[:3], gate * wrench[3:]])
         parts = []
         for part, band in zip((wrench[:3], wrench[3:]), self.bands, strict=True):
             size = float(np.linalg.norm(part))
@@ -192,7 +200,8 @@ class RefTask:
         self.guard = RefGuard(config.force_limit, cc.safety)
         self.regain = RefRegain(cc.safety)
         self.region = RefRegion(config, cc)
-        self.adm = RefAdmittance(config, cc.dt, (cc.force_deadband, cc.torque_deadband))
+        self.adm = RefAdmittance(config, cc.dt, (cc.force_deadband, cc.torque_deadband),
+                                 cc.turn_force_limit)
         self.psi_prev = 0.0
         self.point = np.zeros(3)
         self.had_contact = False
@@ -326,7 +335,7 @@ class RefTask:
         self.had_contact = in_contact
         wrench, mu = self.wrench_of(contact, rot, yaw, desired_scale)
 
-        self.adm.step(wrench)
+        self.adm.step(wrench, float(np.linalg.norm(contact.force)) if in_contact else 0.0)
         lock = self.config.priority_lock
         dv_all = self.adm.state[6:12]
         psi_raw = lock if lock is not None else math.tanh(0.5 * self.b * float(dv_all @ dv_all))

@@ -75,6 +75,26 @@ def admittance_step(state: Array, phi_gamma: Array, wrench: tuple[float, ...]) -
 
 
 @jitable
+def turn_gate(wrench: tuple[float, ...], force: float,
+              limit: float) -> tuple[float, float, float, float, float, float]:
+    """The admittance's torque input gated by the contact force (T1): with ``limit`` F_t > 0
+    [N] the torque of ``wrench`` (6 floats, [N, N·m]) is scaled by
+
+        g = clip((1.5 F_t − ‖f‖) / (0.5 F_t), 0, 1)                                     (T1)
+
+    of the contact force ‖f‖ = ``force`` [N]: whole up to F_t, fading linearly to nothing at
+    1.5 F_t; the force part is kept. A partner leads a turn with a hold-sized force; a push far
+    above it (a shove and its aftermath) is no turn lead, and turning the base at its limit
+    under it sweeps the robot's unskinned links into the partner (docs/wholebody_controller.md,
+    "Following a turning partner"). F_t = 0 is the paper's (13)."""
+    fx, fy, fz, tx, ty, tz = wrench
+    if limit <= 0.0 or force <= limit:
+        return (fx, fy, fz, tx, ty, tz)
+    g = max(0.0, min(1.0, (1.5 * limit - force) / (0.5 * limit)))
+    return (fx, fy, fz, g * tx, g * ty, g * tz)
+
+
+@jitable
 def dead_zone(wrench: tuple[float, ...], force_band: float,
               torque_band: float) -> tuple[float, float, float, float, float, float]:
     """The admittance's input with a dead zone (D1): the force and the torque of ``wrench``

@@ -282,6 +282,10 @@ class ControllerConfig:
     torque_deadband: float = setting(
         "torque_deadband", 0.0, "dead zone of the admittance's torque input (D1), likewise "
         "(0 = the paper's (13))", "N·m", 0.0, 0.5)
+    turn_force_limit: float = setting(
+        "turn_force_limit", 0.0, "contact force above which the admittance's torque input "
+        "fades, to nothing at 1.5 times it (T1): a push far above the hold is no turn lead "
+        "(0 = the paper's (13))", "N", 0.0, 1000.0)
 
     def __post_init__(self) -> None:
         check_settings(self)

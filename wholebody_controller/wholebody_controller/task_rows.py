@@ -76,7 +76,9 @@ P_DEADBAND_F, P_DEADBAND_T = 43, 44
 """The admittance input's dead zone (D1): force δ_f [N], torque δ_τ [N·m]."""
 P_CARRY_POS = 45
 """The position reference carried on the leash (F3: lead moment on, K_p-stiffness 0)."""
-N_PARAM = 46
+P_TURN_FORCE = 46
+"""The contact force F_t [N] above which the admittance's torque input fades (T1; 0 = off)."""
+N_PARAM = 47
 
 # -- contact row: in_contact, centre, force, torque, region min, region max (link frame) ------
 C_IN, C_CENTER, C_FORCE, C_TORQUE, C_MIN, C_MAX = 0, 1, 4, 7, 10, 13
@@ -114,6 +116,7 @@ def link_params(link: LinkTaskConfig, config: ControllerConfig) -> Array:
                                      safety.yield_speed_max, safety.full_excess)
     p[P_DEADBAND_F], p[P_DEADBAND_T] = config.force_deadband, config.torque_deadband
     p[P_CARRY_POS] = config.lead_moment and not any(link.admittance.stiffness[0:3])
+    p[P_TURN_FORCE] = config.turn_force_limit
     return p
 
 

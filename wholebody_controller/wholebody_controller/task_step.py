@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 
 from phri_common.jit import jitable
 from phri_common.planar import base_to_world
-from wholebody_controller.admittance import admittance_step, dead_zone
+from wholebody_controller.admittance import admittance_step, dead_zone, turn_gate
 from wholebody_controller.contact_safety import (
     approach_scale,
     limit_approach,
@@ -81,6 +81,7 @@ from wholebody_controller.task_rows import (
     P_REGAIN_TIME,
     P_RESET,
     P_TRANSIENT,
+    P_TURN_FORCE,
     P_USER_BOX,
     P_USER_BOX_SET,
     P_USER_REF,
@@ -180,6 +181,15 @@ def regain_update(s: Array, p: Array, in_contact: bool, travel: float) -> bool:
             or s[S_ELAPSED] > p[P_REGAIN_TIME] + _REGAIN_TIME_SLACK):
         s[S_EXHAUSTED] = 1.0
     return s[S_EXHAUSTED] == 0.0
+
+
+@jitable
+def contact_force(c: Array) -> float:
+    """‖f‖ [N] of a contact row, 0 when untouched."""
+    if c[C_IN] == 0.0:
+        return 0.0
+    fx, fy, fz = _v3(c, C_FORCE)
+    return math.sqrt(fx * fx + fy * fy + fz * fz)
 
 
 @jitable
@@ -404,7 +414,8 @@ def step_task(s: Array, p: Array, phi_gamma: Array, c: Array, rot: tuple, pos: t
     scale, desired_scale, has_normal, normal, sigma = contact_safety(s, p, c, pos)
     has_rate, rate = track_contact(s, p, c)
     w, mu = link_wrench(s, p, c, rot, yaw, desired_scale)
-    admittance_step(s, phi_gamma, dead_zone(w, p[P_DEADBAND_F], p[P_DEADBAND_T]))
+    gated = turn_gate(w, contact_force(c), p[P_TURN_FORCE])
+    admittance_step(s, phi_gamma, dead_zone(gated, p[P_DEADBAND_F], p[P_DEADBAND_T]))
     lock = p[P_LOCK]
     psi_raw = lock if not math.isnan(lock) else priority(
         (s[S_V], s[S_V + 1], s[S_V + 2], s[S_V + 3], s[S_V + 4], s[S_V + 5]), p[P_B])

@@ -524,6 +524,15 @@ WALTZ_DANCE_RANGE = 0.03
 the first ≈ 17° of a turn at the band's edges and the base, which carries the partner, lags the
 partner's heading by that much (measured: 25° max / 14° RMS heading drift over the first 45 s,
 against 16° / 9° with 0.03)."""
+WALTZ_TURN_FORCE = 20.0
+"""The waltz's ``turn_force_limit`` (T1) [N]: the turn is led with the 10 N hold (the dance band
+reaches 25 N; the waltz peaks at 21 N), so above 20 N the torque input fades, to nothing at
+30 N. Measured (realistic plant, seed 0, the 250 N shove at 20 s): without it the yield ends
+at 21.25 s and the decaying push (50 → 5 N), off-centre on the forearm, turns the base at its
+0.15 rad/s limit for 2 s, sweeping the unskinned right wrist into the rebounding abdomen:
+412 N peak; gated from 30 N to nothing at 60 N, 276 N; with F_t = 20 N, 107 N. The ladder's
+×1 and sway1–2 rungs are unchanged to the digit, ×2's peak falls 41.3 → 36.1 N, sway3's drift
+8.5 / 11.4 → 5.8 / 8.6 cm (docs/wholebody_controller.md, "Following a turning partner")."""
 WALTZ_PAPER_PARAMS = {
     **TABLE_II,
     **_admittance(paper.WALTZ),
@@ -540,11 +549,13 @@ WALTZ_PARAMS = {
     "k_eta": WALTZ_K_ETA,
     "q_dance_range": WALTZ_DANCE_RANGE,
     "lead_moment": True,
+    "turn_force_limit": WALTZ_TURN_FORCE,
     "acceleration_limits": list(ROBOT_ACCELERATION_LIMITS),
 }
 """The default waltz set: the paper's with :data:`WALTZ_FOLLOW`, :data:`WALTZ_K_ETA`,
 :data:`WALTZ_DANCE_RANGE`, the lead moment (F1) with the carried reference (F2) of
-:mod:`wholebody_controller.following`, and commands within the robot's rated accelerations."""
+:mod:`wholebody_controller.following`, the torque input gated by the contact force (T1,
+:data:`WALTZ_TURN_FORCE`), and commands within the robot's rated accelerations."""
 
 WALTZ_TEMPO_BASE_LIMITS = (0.5, 0.5, 1.0)
 """The mecanum base's own speed limits for the `tempo` waltz: x, y 0.5 m/s, yaw
