@@ -208,13 +208,11 @@ def contact_safety(s: Array, p: Array, c: Array, pos: tuple[float, float, float]
     in_contact = c[C_IN] != 0.0
     normal = (0.0, 0.0, 0.0)
     has_normal = False
-    magnitude = 0.0
-    if in_contact:
+    magnitude = contact_force(c)
+    if magnitude > 0.0:
         fx, fy, fz = _v3(c, C_FORCE)
-        magnitude = math.sqrt(fx * fx + fy * fy + fz * fz)
-        if magnitude > 0.0:
-            normal = (fx / magnitude, fy / magnitude, fz / magnitude)
-            has_normal = True
+        normal = (fx / magnitude, fy / magnitude, fz / magnitude)
+        has_normal = True
     was_yielding = s[S_YIELDING] != 0.0
     scale = guard_update(s, p, magnitude)
     if was_yielding and s[S_YIELDING] == 0.0:
